@@ -1,0 +1,23 @@
+# Finds Tessera's Debian 12 dependencies and wraps them in imported targets.
+# OpenColorIO 2.1 ships no CMake config and OpenImageIO's config references a missing OpenCV
+# include directory on Debian 12, so both come through pkg-config.
+find_package(PkgConfig REQUIRED)
+find_package(Threads REQUIRED)
+find_package(TBB REQUIRED)
+find_package(embree 3 REQUIRED)
+pkg_check_modules(OIIO REQUIRED IMPORTED_TARGET OpenImageIO)
+pkg_check_modules(OCIO REQUIRED IMPORTED_TARGET OpenColorIO)
+find_package(OpenEXR REQUIRED)
+find_package(assimp REQUIRED)
+find_package(tinyobjloader REQUIRED)
+find_package(nlohmann_json 3 REQUIRED)
+find_package(CLI11 QUIET CONFIG)
+if(NOT TARGET CLI11::CLI11)
+  add_library(CLI11::CLI11 INTERFACE IMPORTED)
+endif()
+if(TESSERA_BUILD_TESTS)
+  find_package(doctest REQUIRED)
+endif()
+if(TESSERA_BUILD_BENCHMARKS)
+  find_package(benchmark REQUIRED)
+endif()

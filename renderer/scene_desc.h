@@ -1,0 +1,162 @@
+// The parsed form of a scene file: plain data, no Embree, no textures loaded.
+//
+// The pbrt-v4 parser (pbrt_parser.h) and the OBJ loader (obj_loader.h) produce a SceneDesc;
+// scene_builder.h turns it into a renderable Scene. Every entity keeps the file:line it came
+// from and its parameter list, so the builder can report unused or unsupported parameters.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "renderer/transform.h"
+#include "sampling/vecmath.h"
+
+namespace tessera {
+
+/// Where something came from in an input file.
+struct FileLoc {
+    std::string file;
+    int line = 0;
+    std::string str() const { return file + ":" + std::to_string(line); }
+};
+
+/// A bad-input error: the message already starts with "file:line: ". Exit code 2 in the CLI.
+class SceneError : public std::runtime_error {
+  public:
+    explicit SceneError(const std::string &msg) : std::runtime_error(msg) {}
+    SceneError(const FileLoc &loc, const std::string &msg)
+        : std::runtime_error(loc.str() + ": " + msg) {}
+};
+
+/// Prints a warning "file:line: warning: msg" to stderr (thread-safe, deduplicated per message).
+void warn(const FileLoc &loc, const std::string &msg);
+/// Number of warnings printed so far (tests).
+int warning_count();
+
+/// One typed parameter: `"float fov" [ 45 ]`. Types are pbrt-v4's: integer, float, point2,
+/// vector2, point3, vector3, normal (== normal3), rgb, blackbody, spectrum, bool, string, texture.
+struct Param {
+    std::string type, name;
+    std::vector<double> numbers;        ///< integer/float/point/vector/normal/rgb/blackbody, spectrum as pairs
+    std::vector<std::string> strings;   ///< string/texture/bool("true"/"false")/spectrum (named)
+    std::vector<uint8_t> bools;
+    FileLoc loc;
+    mutable bool used = false;
+};
+
+/// A parameter list with typed lookups. Every lookup marks the parameter used, so that
+/// `report_unused` can warn about what was ignored. Lookups throw SceneError on a type mismatch
+/// or a wrong number of values.
+class ParamSet {
+  public:
+    std::vector<Param> params;
+
+    const Param *find(const std::string &name) const;
+    float get_float(const std::string &name, float def) const;
+    int get_int(const std::string &name, int def) const;
+    bool get_bool(const std::string &name, bool def) const;
+    std::string get_string(const std::string &name, const std::string &def) const;
+    Vec3f get_point3(const std::string &name, Vec3f def) const;
+    Vec3f get_vector3(const std::string &name, Vec3f def) const;
+    Vec3f get_normal(const std::string &name, Vec3f def) const;
+    std::vector<float> get_floats(const std::string &name) const;
+    std::vector<int> get_ints(const std::string &name) const;
+    std::vector<Vec2f> get_point2s(const std::string &name) const;
+    std::vector<Vec3f> get_point3s(const std::string &name) const;
+    std::vector<Vec3f> get_vector3s(const std::string &name) const;
+    std::vector<Vec3f> get_normals(const std::string &name) const;
+    std::vector<std::string> get_strings(const std::string &name) const;
+    /// Name of a texture parameter (`"texture reflectance" "mytex"`), empty if absent.
+    std::string get_texture(const std::string &name) const;
+    /// A spectrum-valued parameter given as rgb, blackbody (K), spectrum (named, or
+    /// lambda/value pairs), or a single float. Converted to linear sRGB; approximations are
+    /// reported once with warn(). `illuminant`: true for emission (blackbody normalised as
+    /// pbrt does), false for reflectances (clamped to [0,1] where `unbounded` is false).
+    std::optional<Rgb> get_rgb(const std::string &name, bool illuminant, bool unbounded = true) const;
+    /// Warns (file:line) about every parameter that no lookup used.
+    void report_unused(const std::string &what) const;
+};
+
+/// The pbrt graphics state captured when a shape is declared.
+struct ShapeDesc {
+    std::string type;          ///< "trianglemesh", "plymesh", "sphere", "disk", "bilinearmesh", ...
+    ParamSet params;
+    FileLoc loc;
+    Transform render_from_object;
+    bool reverse_orientation = false;
+    std::string material;      ///< name in SceneDesc::materials ("" = the default diffuse)
+    std::optional<ParamSet> area_light;  ///< AreaLightSource "diffuse" params when emissive
+    FileLoc area_light_loc;
+    std::string area_light_type;
+    /// Directory of the file that declared the shape (relative file names resolve against it).
+    std::string base_dir;
+};
+
+/// A material, named or anonymous. Anonymous materials get a generated unique name.
+struct MaterialDesc {
+    std::string name, type;
+    ParamSet params;
+    FileLoc loc;
+    std::string base_dir;
+};
+
+/// A texture: `Texture "name" "spectrum"|"float" "class" params`.
+struct TextureDesc {
+    std::string name, value_type, tex_class;
+    ParamSet params;
+    FileLoc loc;
+    Transform render_from_texture;
+    std::string base_dir;
+};
+
+/// A light from `LightSource`.
+struct LightDesc {
+    std::string type;
+    ParamSet params;
+    FileLoc loc;
+    Transform render_from_light;
+    std::string base_dir;
+};
+
+/// `ObjectBegin "name"` ... `ObjectEnd`: shapes in the object's own space.
+struct ObjectDesc {
+    std::string name;
+    std::vector<ShapeDesc> shapes;
+    FileLoc loc;
+};
+
+/// `ObjectInstance "name"` with the transform current at that point.
+struct InstanceDesc {
+    std::string object;
+    Transform render_from_instance;
+    FileLoc loc;
+};
+
+/// A scene-wide directive before WorldBegin (Camera, Film, Sampler, Integrator, PixelFilter).
+struct OptionDesc {
+    std::string type;
+    ParamSet params;
+    FileLoc loc;
+    bool present = false;
+};
+
+/// Everything a scene file says. Render space == world space in Tessera.
+struct SceneDesc {
+    OptionDesc camera, film, sampler, integrator, filter, accelerator;
+    Transform camera_from_world;  ///< the CTM at the Camera directive (world -> camera)
+    std::vector<ShapeDesc> shapes;
+    std::map<std::string, MaterialDesc> materials;
+    std::vector<TextureDesc> textures;  ///< in declaration order (textures may reference earlier ones)
+    std::vector<LightDesc> lights;
+    std::map<std::string, ObjectDesc> objects;
+    std::vector<InstanceDesc> instances;
+    std::string main_file;
+};
+
+}  // namespace tessera
