@@ -36,8 +36,10 @@ class SceneError : public std::runtime_error {
 
 /// Prints a warning "file:line: warning: msg" to stderr (thread-safe, deduplicated per message).
 void warn(const FileLoc &loc, const std::string &msg);
-/// Number of warnings printed so far (tests).
+/// Number of warnings printed so far (tests). Thread-safe.
 int warning_count();
+/// The most recent warning line printed ("file:line: warning: msg"), "" if none. Thread-safe.
+std::string last_warning();
 
 /// One typed parameter: `"float fov" [ 45 ]`. Types are pbrt-v4's: integer, float, point2,
 /// vector2, point3, vector3, normal (== normal3), rgb, blackbody, spectrum, bool, string, texture.

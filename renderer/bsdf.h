@@ -1,0 +1,215 @@
+// BSDFs: the scattering models behind pbrt-v4's "diffuse", "conductor", "dielectric" and
+// "coateddiffuse" materials, in RGB.
+//
+// Conventions (pbrt-v4, Pharr/Jakob/Humphreys 4th ed., chapter 9):
+// - Each Bxdf works in the local shading frame: z is the shading normal, x the dpdu direction
+//   (it orients anisotropic roughness). Bsdf wraps a Bxdf with its frame and takes world vectors.
+// - wo and wi both point away from the surface; wo is the direction toward the viewer (radiance
+//   mode) and wi the direction light arrives from.
+// - f() excludes the cosine factor |cos theta_i|; pdf() is per unit solid angle of wi.
+// - Delta (specular) lobes are never returned by f()/pdf(); sample_f returns them with
+//   f = (Fresnel weight) / |cos theta_i| and pdf = the discrete probability of picking the lobe,
+//   so that f |cos| / pdf is the path weight.
+// - For transmission through a dielectric in TransportMode::Radiance, f is divided by eta'^2,
+//   eta' being the relative IOR along the crossing (radiance is compressed by eta^2 entering a
+//   denser medium, PBRT section 9.5.2). BsdfSample::eta returns eta' (1 for reflection).
+//
+// pbrt-v4 material parameters and defaults (checked in pbrt-v4 src/pbrt/materials.{h,cpp}) and
+// how they map here; the material layer does the texture lookups and the mapping:
+//   "diffuse":      "spectrum reflectance" 0.5                 -> DiffuseBxdf{reflectance}
+//   "conductor":    "spectrum eta" metal-Cu-eta, "spectrum k" metal-Cu-k, or instead
+//                   "spectrum reflectance" r (then eta = 1, k = conductor_k_from_reflectance(r));
+//                   "float roughness" 0, "uroughness"/"vroughness" (default: roughness),
+//                   "bool remaproughness" true (alpha = roughness_to_alpha(roughness))
+//                                                              -> ConductorBxdf
+//   "dielectric":   "float eta" 1.5 (or a spectrum; RGB here uses one value),
+//                   "float roughness" 0, "uroughness"/"vroughness", "bool remaproughness" true
+//                                                              -> DielectricBxdf
+//   "coateddiffuse":"spectrum reflectance" 0.5, "float roughness" 0, "uroughness"/"vroughness",
+//                   "float thickness" 0.01, "float eta" 1.5, "spectrum albedo" 0, "float g" 0,
+//                   "integer maxdepth" 10, "integer nsamples" 1, "bool twosided" true,
+//                   "bool remaproughness" true               -> CoatedDiffuseBxdf
+//                   (maxdepth, nsamples and g only affect pbrt's stochastic evaluation; the
+//                   closed-form model below has no use for them.)
+// Roughness is remapped with alpha = sqrt(roughness) when remaproughness is true, else used as
+// alpha directly. Alphas below 1e-3 give the specular (delta) code paths.
+//
+// All types are plain values; every method is const, pure and thread-safe.
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <variant>
+
+#include "renderer/microfacet.h"
+#include "sampling/vecmath.h"
+
+namespace tessera {
+
+/// Kinds of lobe; a Bxdf's flags() is a union of these bits.
+enum BxdfFlags : uint8_t {
+    kBxdfUnset = 0,
+    kBxdfReflection = 1,
+    kBxdfTransmission = 2,
+    kBxdfDiffuse = 4,
+    kBxdfGlossy = 8,
+    kBxdfSpecular = 16,
+};
+
+/// What a path carries: radiance (camera paths) or importance (light paths). Only dielectric
+/// transmission differs (the 1/eta^2 radiance scaling applies in Radiance mode only).
+enum class TransportMode { Radiance, Importance };
+
+/// Result of sampling a Bsdf. `f` excludes the cosine; `pdf` is per solid angle (or the discrete
+/// lobe probability for specular samples); `eta` is the relative IOR of a transmission, else 1.
+struct BsdfSample {
+    Rgb f;
+    Vec3f wi;
+    float pdf = 0.f;
+    uint8_t flags = kBxdfUnset;
+    float eta = 1.f;
+    bool pdf_is_proportional = false;  ///< always false here (kept for pbrt-v4 parity)
+
+    bool is_specular() const { return flags & kBxdfSpecular; }
+    bool is_transmission() const { return flags & kBxdfTransmission; }
+    bool is_reflection() const { return flags & kBxdfReflection; }
+};
+
+/// Lambertian reflection f = reflectance / pi in the hemisphere of wo; cosine-weighted sampling.
+struct DiffuseBxdf {
+    Rgb reflectance{0.5f};  ///< hemispherical reflectance in [0, 1] per channel
+
+    Rgb f(Vec3f wo, Vec3f wi, TransportMode mode) const;
+    std::optional<BsdfSample> sample_f(Vec3f wo, float uc, Vec2f u, TransportMode mode) const;
+    float pdf(Vec3f wo, Vec3f wi, TransportMode mode) const;
+    uint8_t flags() const;
+};
+
+/// Metal: Torrance-Sparrow microfacet reflection (Torrance & Sparrow 1967; Walter et al. 2007)
+/// with the GGX distribution and the conductor Fresnel term per RGB channel
+/// (f = D(wm) F(wo.wm) G(wo,wi) / (4 cos_o cos_i)); a perfect mirror when effectively smooth.
+/// Sampled with visible normals (Heitz 2018). Reflection only, in the hemisphere of wo.
+struct ConductorBxdf {
+    TrowbridgeReitz distrib;
+    Rgb eta{1.f};  ///< real part of the IOR relative to the outside medium, per channel
+    Rgb k{0.f};    ///< absorption coefficient (imaginary part), per channel
+
+    Rgb f(Vec3f wo, Vec3f wi, TransportMode mode) const;
+    std::optional<BsdfSample> sample_f(Vec3f wo, float uc, Vec2f u, TransportMode mode) const;
+    float pdf(Vec3f wo, Vec3f wi, TransportMode mode) const;
+    uint8_t flags() const;
+};
+
+/// pbrt-v4's conversion of an artist "reflectance" to a conductor: with eta = 1,
+/// k = 2 sqrt(r) / sqrt(1 - r) gives normal-incidence reflectance r (r clamped to [0, 0.9999]).
+Rgb conductor_k_from_reflectance(Rgb r);
+
+/// Glass-like interface with relative IOR eta (inside / outside; the +z side is outside):
+/// Fresnel-weighted reflection and refraction, perfectly specular when the distribution is
+/// effectively smooth, else the rough GGX model of Walter et al. 2007 with the generalized
+/// half vector, visible-normal sampling and a reflect/refract choice with probability R / (R+T)
+/// (PBRT 4th ed., section 9.7). eta == 1 means no interface: pure specular pass-through.
+struct DielectricBxdf {
+    float eta = 1.5f;
+    TrowbridgeReitz distrib;
+
+    Rgb f(Vec3f wo, Vec3f wi, TransportMode mode) const;
+    std::optional<BsdfSample> sample_f(Vec3f wo, float uc, Vec2f u, TransportMode mode) const;
+    float pdf(Vec3f wo, Vec3f wi, TransportMode mode) const;
+    uint8_t flags() const;
+};
+
+/// pbrt-v4 "coateddiffuse": a dielectric coat (IOR eta, GGX roughness) over a Lambertian base
+/// with an absorbing layer of the given thickness in between.
+///
+/// NOTE: pbrt-v4 evaluates this stochastically (LayeredBxDF random walk, Guo et al. 2018,
+/// "Position-Free Monte Carlo Simulation for Arbitrary Layered BSDFs"). Here it is the
+/// deterministic closed-form layered model of Weidlich & Wilkie 2007 ("Arbitrarily Layered
+/// Micro-Facet Surfaces") and Kelemen & Szirmay-Kalos 2001, as in Mitsuba's "plastic":
+///   f = f_coat(wo, wi) + f_base(wo, wi), with
+///   f_coat = the GGX dielectric reflection lobe of the coat (a delta lobe of weight F(cos_o)
+///            when smooth),
+///   f_base = rho T(wo) T(wi) A(wo) A(wi) / (pi eta^2 (1 - rho Fdr_int a^2)),
+/// where T(w) = 1 - F(cos w) is the Fresnel transmittance of the (macro) interface, Fdr_int the
+/// coat's internal diffuse (cosine-averaged) Fresnel reflectance, 1 - Fdr_int = (1 - Fdr_ext) /
+/// eta^2, and the factor 1/(1 - rho Fdr_int a^2) sums the light bouncing between base and coat.
+/// Absorption: pbrt's layer has unit extinction per unit thickness; here the absorbing part
+/// sigma_a = 1 - albedo attenuates the refracted ray A(w) = exp(-sigma_a thickness / cos_t(w))
+/// and each internal diffuse round trip by a^2, a = exp(-2 sigma_a thickness); the scattering
+/// part (albedo, g) is treated as forward scattering that neither absorbs nor redirects.
+/// The model conserves energy (the base term's albedo is at most T(wo)) and is reciprocal.
+/// It is two-sided like pbrt's (wo below the surface mirrors both directions); no transmission.
+/// Sampling: the coat lobe (visible normals, or the delta) with probability p_coat from the
+/// estimated Fresnel weight against the base's weight, else the cosine-weighted hemisphere;
+/// pdf() is the matching mixture density.
+/// Differences from pbrt-v4: no multiple scattering inside a rough coat, the base seen through a
+/// rough coat is not blurred by it, and the medium scattering (albedo, g) is approximated.
+struct CoatedDiffuseBxdf {
+    Rgb reflectance{0.5f};  ///< base diffuse reflectance
+    float eta = 1.5f;       ///< coat IOR relative to the outside (values < 1 are inverted)
+    TrowbridgeReitz distrib;
+    float thickness = 0.01f;  ///< layer thickness in units of the layer's mean free path
+    Rgb albedo{0.f};          ///< single-scattering albedo of the layer medium
+    float g = 0.f;            ///< Henyey-Greenstein asymmetry (unused, see above)
+    float fdr_int = 0.f;      ///< internal diffuse Fresnel reflectance (set by the constructor)
+
+    CoatedDiffuseBxdf() : CoatedDiffuseBxdf(Rgb(0.5f), 1.5f, TrowbridgeReitz(0.f, 0.f)) {}
+    CoatedDiffuseBxdf(Rgb reflectance, float eta, TrowbridgeReitz distrib,
+                      float thickness = 0.01f, Rgb albedo = Rgb(0.f), float g = 0.f);
+
+    Rgb f(Vec3f wo, Vec3f wi, TransportMode mode) const;
+    std::optional<BsdfSample> sample_f(Vec3f wo, float uc, Vec2f u, TransportMode mode) const;
+    float pdf(Vec3f wo, Vec3f wi, TransportMode mode) const;
+    uint8_t flags() const;
+
+    /// Probability of sampling the coat lobe for outgoing direction wo (local, wo.z > 0).
+    float coat_probability(Vec3f wo) const;
+
+  private:
+    Rgb base(Vec3f wo, Vec3f wi) const;
+    Rgb coat_f(Vec3f wo, Vec3f wi) const;
+    float coat_pdf(Vec3f wo, Vec3f wi) const;
+};
+
+/// Cosine-weighted hemispherical average of the dielectric Fresnel reflectance seen from the
+/// outside, Fdr_ext(eta) = 2 int_0^1 F(mu, eta) mu dmu, for eta >= 1 (tabulated once; thread-safe).
+float fresnel_diffuse_reflectance(float eta);
+
+using Bxdf = std::variant<DiffuseBxdf, ConductorBxdf, DielectricBxdf, CoatedDiffuseBxdf>;
+
+/// A Bxdf with its shading frame; takes and returns world-space unit directions. Directions
+/// passed in are normalised here. A direction exactly in the tangent plane (wo.z == 0 locally)
+/// scatters nothing. Plain value, thread-safe.
+class Bsdf {
+  public:
+    Bsdf() = default;
+    Bsdf(const Frame &shading_frame, Bxdf bxdf) : frame_(shading_frame), bxdf_(bxdf) {}
+
+    /// BSDF value (no cosine) for the pair; 0 for delta lobes. Units: 1/sr.
+    Rgb f(Vec3f wo_world, Vec3f wi_world, TransportMode mode = TransportMode::Radiance) const;
+    /// Samples wi (world space in the result) from canonical uc in [0,1) (lobe choice) and u in
+    /// [0,1)^2 (direction). nullopt when no direction is produced (TIR in a rough interface,
+    /// a microfacet reflection below the horizon, wo in the tangent plane, zero f or pdf).
+    std::optional<BsdfSample> sample_f(Vec3f wo_world, float uc, Vec2f u,
+                                       TransportMode mode = TransportMode::Radiance) const;
+    /// Solid-angle density with which sample_f returns wi_world (non-delta part only).
+    float pdf(Vec3f wo_world, Vec3f wi_world, TransportMode mode = TransportMode::Radiance) const;
+    /// Union of the lobes' BxdfFlags.
+    uint8_t flags() const;
+    /// Colour for an albedo AOV: diffuse/base reflectance, the normal-incidence Fresnel
+    /// reflectance of a conductor, 1 for a dielectric.
+    Rgb albedo_hint() const;
+    /// True when some lobe is diffuse or glossy (light sampling / MIS is worthwhile).
+    bool has_non_specular() const { return flags() & (kBxdfDiffuse | kBxdfGlossy); }
+
+    const Frame &frame() const { return frame_; }
+    const Bxdf &bxdf() const { return bxdf_; }
+    Vec3f to_local(Vec3f w) const { return frame_.to_local(w); }
+    Vec3f to_world(Vec3f w) const { return frame_.to_world(w); }
+
+  private:
+    Frame frame_;
+    Bxdf bxdf_;
+};
+
+}  // namespace tessera

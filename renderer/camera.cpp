@@ -1,0 +1,179 @@
+#include "renderer/camera.h"
+
+#include <algorithm>
+#include <cstdio>
+
+#include "sampling/warp.h"
+
+namespace tessera {
+
+namespace {
+constexpr int kFilterTableSize = 256;
+
+float gaussian_1d(float x, float sigma) {
+    return std::exp(-x * x / (2 * sigma * sigma)) / std::sqrt(2 * kPi * sigma * sigma);
+}
+}  // namespace
+
+PixelFilter::PixelFilter(Kind kind, Vec2f radius, float sigma)
+    : kind_(kind), radius_(radius), sigma_(sigma) {
+    if (kind_ != Kind::Gaussian) return;
+    // Tabulate the (separable) truncated gaussian of pbrt-v4 per axis:
+    // f(x) = max(0, g(x) - g(r)). Sampling inverts the piecewise-constant CDF.
+    for (int axis = 0; axis < 2; ++axis) {
+        float r = radius_[axis];
+        std::vector<float> &cdf = cdf_[axis];
+        cdf.assign(kFilterTableSize + 1, 0.f);
+        for (int i = 0; i < kFilterTableSize; ++i) {
+            float x = -r + (i + 0.5f) * (2 * r / kFilterTableSize);
+            float f = std::max(0.f, gaussian_1d(x, sigma_) - gaussian_1d(r, sigma_));
+            cdf[size_t(i) + 1] = cdf[size_t(i)] + f;
+        }
+        float total = cdf.back();
+        for (float &c : cdf) c = total > 0 ? c / total : 0.f;
+    }
+}
+
+float PixelFilter::sample_1d(float u, int axis) const {
+    float r = radius_[axis];
+    switch (kind_) {
+    case Kind::Box:
+        return (2 * u - 1) * r;
+    case Kind::Triangle:
+        return sampling::sample_tent(u, r);
+    case Kind::Gaussian: {
+        const std::vector<float> &cdf = cdf_[axis];
+        // Largest i with cdf[i] <= u.
+        auto it = std::upper_bound(cdf.begin(), cdf.end(), u);
+        int i = std::clamp(int(it - cdf.begin()) - 1, 0, kFilterTableSize - 1);
+        float c0 = cdf[size_t(i)], c1 = cdf[size_t(i) + 1];
+        float t = c1 > c0 ? (u - c0) / (c1 - c0) : 0.5f;
+        return -r + (i + t) * (2 * r / kFilterTableSize);
+    }
+    }
+    return 0.f;
+}
+
+Vec2f PixelFilter::sample(Vec2f u) const { return {sample_1d(u.x, 0), sample_1d(u.y, 1)}; }
+
+float PixelFilter::evaluate(Vec2f p) const {
+    if (std::abs(p.x) > radius_.x || std::abs(p.y) > radius_.y) return 0.f;
+    switch (kind_) {
+    case Kind::Box:
+        return 1.f;
+    case Kind::Triangle:
+        return std::max(0.f, radius_.x - std::abs(p.x)) * std::max(0.f, radius_.y - std::abs(p.y));
+    case Kind::Gaussian:
+        return std::max(0.f, gaussian_1d(p.x, sigma_) - gaussian_1d(radius_.x, sigma_)) *
+               std::max(0.f, gaussian_1d(p.y, sigma_) - gaussian_1d(radius_.y, sigma_));
+    }
+    return 0.f;
+}
+
+std::string PixelFilter::describe() const {
+    const char *names[] = {"box", "triangle", "gaussian"};
+    char buf[128];
+    std::snprintf(buf, sizeof(buf), "%s filter, radius (%g, %g)", names[int(kind_)], radius_.x,
+                  radius_.y);
+    return buf;
+}
+
+PerspectiveCamera::PerspectiveCamera(const Transform &camera_from_world, int width, int height,
+                                     float fov_deg, float lens_radius, float focal_distance,
+                                     const float *screen_window)
+    : world_from_camera_(camera_from_world.inverse()),
+      lens_radius_(lens_radius),
+      focal_distance_(focal_distance) {
+    // Screen window: the shorter axis spans [-1, 1] (pbrt-v4 CameraBase).
+    float aspect = float(width) / float(height);
+    float sw[4];
+    if (screen_window) {
+        std::copy(screen_window, screen_window + 4, sw);
+    } else if (aspect > 1.f) {
+        sw[0] = -aspect; sw[1] = aspect; sw[2] = -1.f; sw[3] = 1.f;
+    } else {
+        sw[0] = -1.f; sw[1] = 1.f; sw[2] = -1.f / aspect; sw[3] = 1.f / aspect;
+    }
+    Transform screen_from_camera = Transform::perspective(fov_deg, 1e-2, 1000.0);
+    Transform raster_from_screen = Transform::scale(width, -height, 1) *
+                                   Transform::scale(1.0 / (sw[1] - sw[0]), 1.0 / (sw[3] - sw[2]), 1) *
+                                   Transform::translate({-sw[0], -sw[3], 0});
+    camera_from_raster_ = screen_from_camera.inverse() * raster_from_screen.inverse();
+    Vec3f p0 = camera_from_raster_.point({0, 0, 0});
+    dx_camera_ = camera_from_raster_.point({1, 0, 0}) - p0;
+    dy_camera_ = camera_from_raster_.point({0, 1, 0}) - p0;
+
+    // Smallest differentials over the film, for Approximate_dp_dxy (pbrt-v4 FindMinimumDifferentials).
+    min_pos_dx_ = min_pos_dy_ = {kInfinity, kInfinity, kInfinity};
+    min_dir_dx_ = min_dir_dy_ = {kInfinity, kInfinity, kInfinity};
+    const int n = 32;
+    for (int i = 0; i < n; ++i) {
+        Vec2f pr{float(i) / (n - 1) * width, float(i) / (n - 1) * height};
+        Vec3f pc = camera_from_raster_.point({pr.x, pr.y, 0});
+        Vec3f d = normalize(pc);
+        Vec3f dx = normalize(pc + dx_camera_) - d;
+        Vec3f dy = normalize(pc + dy_camera_) - d;
+        if (length_squared(dx) < length_squared(min_dir_dx_)) min_dir_dx_ = dx;
+        if (length_squared(dy) < length_squared(min_dir_dy_)) min_dir_dy_ = dy;
+    }
+    min_pos_dx_ = min_pos_dy_ = {0, 0, 0};
+}
+
+CameraRay PerspectiveCamera::generate_ray(Vec2f p_raster, Vec2f u_lens) const {
+    Vec3f p_camera = camera_from_raster_.point({p_raster.x, p_raster.y, 0});
+    Vec3f o{0, 0, 0};
+    Vec3f d = normalize(p_camera);
+    CameraRay cr;
+    if (lens_radius_ > 0) {
+        Vec2f pl = sampling::square_to_disk_concentric(u_lens) * lens_radius_;
+        float ft = focal_distance_ / d.z;
+        Vec3f p_focus = d * ft;
+        o = {pl.x, pl.y, 0};
+        d = normalize(p_focus - o);
+        // Differentials through the same lens point (pbrt-v4 PerspectiveCamera).
+        Vec3f dxc = normalize(p_camera + dx_camera_);
+        Vec3f dyc = normalize(p_camera + dy_camera_);
+        Vec3f fx = dxc * (focal_distance_ / dxc.z), fy = dyc * (focal_distance_ / dyc.z);
+        cr.rx_o = world_from_camera_.point(o);
+        cr.ry_o = cr.rx_o;
+        cr.rx_d = normalize(world_from_camera_.vector(normalize(fx - o)));
+        cr.ry_d = normalize(world_from_camera_.vector(normalize(fy - o)));
+    } else {
+        cr.rx_o = cr.ry_o = world_from_camera_.point(o);
+        cr.rx_d = normalize(world_from_camera_.vector(normalize(p_camera + dx_camera_)));
+        cr.ry_d = normalize(world_from_camera_.vector(normalize(p_camera + dy_camera_)));
+    }
+    cr.ray.o = world_from_camera_.point(o);
+    cr.ray.d = normalize(world_from_camera_.vector(d));
+    cr.ray.t_max = kInfinity;
+    cr.has_differentials = true;
+    return cr;
+}
+
+void PerspectiveCamera::approximate_dp_dxy(Vec3f p, Vec3f n, int spp, Vec3f *dpdx,
+                                           Vec3f *dpdy) const {
+    // Intersect the smallest camera differential rays, translated to pass the camera origin
+    // toward p, with the tangent plane at p (pbrt-v4 CameraBase::Approximate_dp_dxy).
+    Vec3f cam = position();
+    Vec3f to_p = p - cam;
+    float dist = length(to_p);
+    float spp_scale = std::max(0.125f, 1.f / std::sqrt(float(std::max(spp, 1))));
+    if (!(dist > 0)) {
+        *dpdx = *dpdy = {0, 0, 0};
+        return;
+    }
+    Vec3f w = to_p / dist;
+    Frame f = Frame::from_z(w);
+    auto hit = [&](Vec3f ddir_cam) {
+        // Rotate the camera-space differential so that it is relative to w instead of +z.
+        Vec3f d = normalize(w + f.x * ddir_cam.x + f.y * ddir_cam.y);
+        float denom = dot(n, d);
+        if (std::abs(denom) < 1e-8f) return Vec3f(0, 0, 0);
+        float t = dot(n, to_p) / denom;
+        return (cam + d * t - p) * spp_scale;
+    };
+    *dpdx = hit(min_dir_dx_);
+    *dpdy = hit(min_dir_dy_);
+}
+
+}  // namespace tessera

@@ -1,0 +1,71 @@
+// The perspective camera and the pixel reconstruction filter of pbrt-v4, with filter importance
+// sampling: each camera sample lands in exactly one pixel, with weight 1 (positive filters).
+//
+// Conventions (PBRT-NOTES.md): camera space looks down +z, +y up, +x toward the right of the
+// image; raster (0,0) is the top-left corner; `fov` spans the shorter image axis.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "renderer/interaction.h"
+#include "renderer/transform.h"
+
+namespace tessera {
+
+/// Pixel filter, sampled by importance: `sample(u)` returns an offset from the pixel centre in
+/// pixels, distributed proportionally to the filter (box, triangle, gaussian).
+class PixelFilter {
+  public:
+    enum class Kind { Box, Triangle, Gaussian };
+    PixelFilter() = default;
+    PixelFilter(Kind kind, Vec2f radius, float sigma = 0.5f);
+    /// Offset in pixels from the pixel centre, density proportional to the filter.
+    Vec2f sample(Vec2f u) const;
+    /// Filter value f(x, y) (tests).
+    float evaluate(Vec2f p) const;
+    Kind kind() const { return kind_; }
+    Vec2f radius() const { return radius_; }
+    std::string describe() const;
+
+  private:
+    float sample_1d(float u, int axis) const;
+    Kind kind_ = Kind::Box;
+    Vec2f radius_{0.5f, 0.5f};
+    float sigma_ = 0.5f;
+    // Gaussian: tabulated 1D CDF per axis (the filter is separable).
+    std::vector<float> cdf_[2];
+};
+
+/// Camera ray with the differentials of its origin and direction for one pixel step in x and y.
+struct CameraRay {
+    Ray ray;
+    Vec3f rx_o, rx_d, ry_o, ry_d;
+    bool has_differentials = false;
+};
+
+/// pbrt-v4 "perspective" camera: fov, lensradius, focaldistance, screenwindow, frameaspectratio.
+class PerspectiveCamera {
+  public:
+    /// `camera_from_world` is the CTM at the Camera directive; width/height is the film.
+    PerspectiveCamera(const Transform &camera_from_world, int width, int height, float fov_deg,
+                      float lens_radius, float focal_distance,
+                      const float *screen_window = nullptr);
+    /// Ray through raster position (x, y) in pixels; `u_lens` in [0,1)^2 for depth of field.
+    CameraRay generate_ray(Vec2f p_raster, Vec2f u_lens) const;
+    Vec3f position() const { return world_from_camera_.point({0, 0, 0}); }
+    /// Camera-space direction toward +z transformed to world.
+    Vec3f forward() const { return normalize(world_from_camera_.vector({0, 0, 1})); }
+    /// Approximate position differentials at point p with normal n, for texture filtering
+    /// (pbrt-v4 CameraBase::Approximate_dp_dxy), used after the first bounce.
+    void approximate_dp_dxy(Vec3f p, Vec3f n, int spp, Vec3f *dpdx, Vec3f *dpdy) const;
+
+  private:
+    Transform world_from_camera_;
+    Transform camera_from_raster_;
+    Vec3f dx_camera_, dy_camera_;  // raster step in camera space on the z=1 plane
+    float lens_radius_, focal_distance_;
+    Vec3f min_pos_dx_, min_pos_dy_, min_dir_dx_, min_dir_dy_;
+};
+
+}  // namespace tessera

@@ -1,0 +1,22 @@
+// A default camera and lights for scene files that have none (OBJ, bare PLY meshes).
+#pragma once
+
+#include "renderer/scene_desc.h"
+
+namespace tessera {
+
+/// Camera-from-world for a camera in front of the box [bmin, bmax] (on its +z side, looking
+/// toward -z, +y up) framing its bounding sphere with vertical fov `fov_deg`. World +x appears
+/// on the right of the image, as a viewer of a right-handed (OBJ) model expects.
+Transform default_camera_from_world(Vec3f bmin, Vec3f bmax, float fov_deg);
+
+/// Fills desc.camera ("perspective", fov 40) and desc.film (512x512, "tessera.exr") when
+/// absent, and, when `has_emitters` is false, adds a dim uniform "infinite" light (L 0.25) and
+/// a "distant" key light (L 3) from the upper front left. Thread-safe (pure).
+void add_default_view(SceneDesc &desc, Vec3f bmin, Vec3f bmax, bool has_emitters);
+
+/// A SceneDesc holding one "plymesh" shape for the file at `path` (diffuse 0.5), with the
+/// default view. Throws SceneError when the mesh cannot be read.
+SceneDesc load_ply_scene(const std::string &path);
+
+}  // namespace tessera

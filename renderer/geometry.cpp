@@ -1,0 +1,501 @@
+#include "renderer/geometry.h"
+
+#include <embree3/rtcore_ray.h>
+
+#include <cmath>
+#include <cstdio>
+#include <stdexcept>
+
+namespace tessera {
+
+namespace {
+
+void embree_error(void *, RTCError code, const char *str) {
+    std::fprintf(stderr, "embree error %d: %s\n", int(code), str ? str : "");
+}
+
+struct Vec3d {
+    double x, y, z;
+};
+Vec3d to_object(const Mat4 &m, Vec3d p, bool point) {
+    double w = point ? 1.0 : 0.0;
+    return {m.m[0][0] * p.x + m.m[0][1] * p.y + m.m[0][2] * p.z + m.m[0][3] * w,
+            m.m[1][0] * p.x + m.m[1][1] * p.y + m.m[1][2] * p.z + m.m[1][3] * w,
+            m.m[2][0] * p.x + m.m[2][1] * p.y + m.m[2][2] * p.z + m.m[2][3] * w};
+}
+
+/// Intersects a quadric in its object space; returns the smallest valid t in (t_min, t_max).
+bool intersect_quadric(const Quadric &q, Vec3d o_world, Vec3d d_world, double t_min,
+                       double t_max, double *t_hit) {
+    const Mat4 &inv = q.render_from_object.inverse_matrix();
+    Vec3d o = to_object(inv, o_world, true);
+    Vec3d d = to_object(inv, d_world, false);
+    if (q.kind == Quadric::Kind::Sphere) {
+        double r = q.radius;
+        double a = d.x * d.x + d.y * d.y + d.z * d.z;
+        double b = 2 * (d.x * o.x + d.y * o.y + d.z * o.z);
+        double c = o.x * o.x + o.y * o.y + o.z * o.z - r * r;
+        // Numerically stable discriminant (pbrt-v4 6.2.2): b^2 - 4ac = 4a (r^2 - |o - (b/2a) d|^2 ...)
+        double f = b / (2 * a);
+        Vec3d vp{o.x - f * d.x, o.y - f * d.y, o.z - f * d.z};
+        double len2 = vp.x * vp.x + vp.y * vp.y + vp.z * vp.z;
+        double disc = 4 * a * (r * r - len2);
+        if (disc < 0) return false;
+        double root = std::sqrt(disc);
+        double qq = b < 0 ? -0.5 * (b - root) : -0.5 * (b + root);
+        double t0 = qq / a, t1 = c / qq;
+        if (t0 > t1) std::swap(t0, t1);
+        for (double t : {t0, t1}) {
+            if (!(t > t_min && t < t_max)) continue;
+            double px = o.x + t * d.x, py = o.y + t * d.y, pz = o.z + t * d.z;
+            // Partial spheres: clip by z range and phi.
+            bool partial = q.zmin > -r || q.zmax < r || q.phi_max < 2 * kPi;
+            if (partial) {
+                if (pz < q.zmin || pz > q.zmax) continue;
+                double phi = std::atan2(py, px);
+                if (phi < 0) phi += 2 * M_PI;
+                if (phi > q.phi_max) continue;
+            }
+            *t_hit = t;
+            return true;
+        }
+        return false;
+    }
+    // Disk at z = height.
+    if (d.z == 0) return false;
+    double t = (q.height - o.z) / d.z;
+    if (!(t > t_min && t < t_max)) return false;
+    double px = o.x + t * d.x, py = o.y + t * d.y;
+    double r2 = px * px + py * py;
+    if (r2 > double(q.radius) * q.radius || r2 < double(q.inner_radius) * q.inner_radius)
+        return false;
+    if (q.phi_max < 2 * kPi) {
+        double phi = std::atan2(py, px);
+        if (phi < 0) phi += 2 * M_PI;
+        if (phi > q.phi_max) return false;
+    }
+    *t_hit = t;
+    return true;
+}
+
+}  // namespace
+
+/// One Embree scene plus the records of its geometries, indexed by Embree geomID.
+class GeometryGroup {
+  public:
+    struct Record {
+        enum class Kind { Mesh, Quadric, Instance } kind;
+        int index;  // into meshes / quadrics / Geometry::instances_
+    };
+    std::string name;
+    RTCScene scene = nullptr;
+    std::vector<std::unique_ptr<TriangleMesh>> meshes;
+    std::vector<std::unique_ptr<Quadric>> quadrics;
+    std::vector<Record> records;  // by geomID
+    bool committed = false;
+};
+
+Vec3f TriangleMesh::oriented_normal(size_t tri) const {
+    uint32_t i0 = indices[3 * tri], i1 = indices[3 * tri + 1], i2 = indices[3 * tri + 2];
+    Vec3f ng = cross(p[i1] - p[i0], p[i2] - p[i0]);
+    float len = length(ng);
+    if (!(len > 0)) return {0, 0, 1};
+    ng = ng / len;
+    if (!n.empty()) {
+        Vec3f ns = n[i0] + n[i1] + n[i2];
+        ng = face_forward(ng, ns);
+    } else if (flip_normal) {
+        ng = -ng;
+    }
+    return ng;
+}
+
+float TriangleMesh::area(size_t tri) const {
+    uint32_t i0 = indices[3 * tri], i1 = indices[3 * tri + 1], i2 = indices[3 * tri + 2];
+    return 0.5f * length(cross(p[i1] - p[i0], p[i2] - p[i0]));
+}
+
+Geometry::Geometry() {
+    device_ = rtcNewDevice(nullptr);
+    if (!device_) throw std::runtime_error("cannot create the Embree device");
+    rtcSetDeviceErrorFunction(device_, embree_error, nullptr);
+    auto top = std::make_unique<GeometryGroup>();
+    top->name = "(top level)";
+    top->scene = rtcNewScene(device_);
+    groups_.push_back(std::move(top));
+}
+
+Geometry::~Geometry() {
+    for (auto &g : groups_)
+        if (g->scene) rtcReleaseScene(g->scene);
+    if (device_) rtcReleaseDevice(device_);
+}
+
+int Geometry::new_prototype(const std::string &name) {
+    auto g = std::make_unique<GeometryGroup>();
+    g->name = name;
+    g->scene = rtcNewScene(device_);
+    groups_.push_back(std::move(g));
+    return int(groups_.size()) - 1;
+}
+
+const std::vector<std::unique_ptr<TriangleMesh>> &Geometry::top_level_meshes() const {
+    return groups_[0]->meshes;
+}
+
+void Geometry::add_mesh(int group, TriangleMesh mesh) {
+    GeometryGroup &g = *groups_.at(size_t(group));
+    if (mesh.indices.empty()) return;
+    auto m = std::make_unique<TriangleMesh>(std::move(mesh));
+    RTCGeometry geom = rtcNewGeometry(device_, RTC_GEOMETRY_TYPE_TRIANGLE);
+    // Shared buffers: Embree reads our arrays directly (vertex buffer padded for SSE loads).
+    m->p.reserve(m->p.size() + 1);
+    rtcSetSharedGeometryBuffer(geom, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, m->p.data(), 0,
+                               sizeof(Vec3f), m->p.size());
+    rtcSetSharedGeometryBuffer(geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3,
+                               m->indices.data(), 0, 3 * sizeof(uint32_t),
+                               m->triangle_count());
+    rtcCommitGeometry(geom);
+    unsigned id = rtcAttachGeometry(g.scene, geom);
+    rtcReleaseGeometry(geom);
+    if (g.records.size() <= id) g.records.resize(id + 1);
+    g.records[id] = {GeometryGroup::Record::Kind::Mesh, int(g.meshes.size())};
+    if (group == 0) triangle_count_ += m->triangle_count();
+    g.meshes.push_back(std::move(m));
+}
+
+namespace {
+
+void quadric_bounds(const RTCBoundsFunctionArguments *args) {
+    const Quadric &q = *static_cast<const Quadric *>(args->geometryUserPtr);
+    Vec3f lo, hi;
+    if (q.kind == Quadric::Kind::Sphere) {
+        lo = {-q.radius, -q.radius, q.zmin};
+        hi = {q.radius, q.radius, q.zmax};
+    } else {
+        lo = {-q.radius, -q.radius, q.height};
+        hi = {q.radius, q.radius, q.height};
+    }
+    Vec3f bmin(kInfinity, kInfinity, kInfinity), bmax = -bmin;
+    for (int c = 0; c < 8; ++c) {
+        Vec3f corner{(c & 1) ? hi.x : lo.x, (c & 2) ? hi.y : lo.y, (c & 4) ? hi.z : lo.z};
+        Vec3f w = q.render_from_object.point(corner);
+        bmin = vmin(bmin, w);
+        bmax = vmax(bmax, w);
+    }
+    // Pad by a relative epsilon: the transform is applied in float.
+    Vec3f pad = (abs(bmin) + abs(bmax)) * 1e-6f + Vec3f(1e-30f, 1e-30f, 1e-30f);
+    args->bounds_o->lower_x = bmin.x - pad.x;
+    args->bounds_o->lower_y = bmin.y - pad.y;
+    args->bounds_o->lower_z = bmin.z - pad.z;
+    args->bounds_o->upper_x = bmax.x + pad.x;
+    args->bounds_o->upper_y = bmax.y + pad.y;
+    args->bounds_o->upper_z = bmax.z + pad.z;
+}
+
+void quadric_intersect(const RTCIntersectFunctionNArguments *args) {
+    const Quadric &q = *static_cast<const Quadric *>(args->geometryUserPtr);
+    RTCRayN *ray = RTCRayHitN_RayN(args->rayhit, args->N);
+    RTCHitN *hit = RTCRayHitN_HitN(args->rayhit, args->N);
+    for (unsigned i = 0; i < args->N; ++i) {
+        if (args->valid[i] != -1) continue;
+        Vec3d o{RTCRayN_org_x(ray, args->N, i), RTCRayN_org_y(ray, args->N, i),
+                RTCRayN_org_z(ray, args->N, i)};
+        Vec3d d{RTCRayN_dir_x(ray, args->N, i), RTCRayN_dir_y(ray, args->N, i),
+                RTCRayN_dir_z(ray, args->N, i)};
+        double t;
+        if (!intersect_quadric(q, o, d, RTCRayN_tnear(ray, args->N, i),
+                               RTCRayN_tfar(ray, args->N, i), &t))
+            continue;
+        RTCRayN_tfar(ray, args->N, i) = float(t);
+        RTCHitN_Ng_x(hit, args->N, i) = 0;
+        RTCHitN_Ng_y(hit, args->N, i) = 0;
+        RTCHitN_Ng_z(hit, args->N, i) = 1;
+        RTCHitN_u(hit, args->N, i) = 0;
+        RTCHitN_v(hit, args->N, i) = 0;
+        RTCHitN_primID(hit, args->N, i) = args->primID;
+        RTCHitN_geomID(hit, args->N, i) = args->geomID;
+        RTCHitN_instID(hit, args->N, i, 0) = args->context->instID[0];
+    }
+}
+
+void quadric_occluded(const RTCOccludedFunctionNArguments *args) {
+    const Quadric &q = *static_cast<const Quadric *>(args->geometryUserPtr);
+    for (unsigned i = 0; i < args->N; ++i) {
+        if (args->valid[i] != -1) continue;
+        Vec3d o{RTCRayN_org_x(args->ray, args->N, i), RTCRayN_org_y(args->ray, args->N, i),
+                RTCRayN_org_z(args->ray, args->N, i)};
+        Vec3d d{RTCRayN_dir_x(args->ray, args->N, i), RTCRayN_dir_y(args->ray, args->N, i),
+                RTCRayN_dir_z(args->ray, args->N, i)};
+        double t;
+        if (intersect_quadric(q, o, d, RTCRayN_tnear(args->ray, args->N, i),
+                              RTCRayN_tfar(args->ray, args->N, i), &t))
+            RTCRayN_tfar(args->ray, args->N, i) = -kInfinity;
+    }
+}
+
+}  // namespace
+
+void Geometry::add_quadric(int group, const Quadric &quad) {
+    GeometryGroup &g = *groups_.at(size_t(group));
+    auto q = std::make_unique<Quadric>(quad);
+    RTCGeometry geom = rtcNewGeometry(device_, RTC_GEOMETRY_TYPE_USER);
+    rtcSetGeometryUserPrimitiveCount(geom, 1);
+    rtcSetGeometryUserData(geom, q.get());
+    rtcSetGeometryBoundsFunction(geom, quadric_bounds, nullptr);
+    rtcSetGeometryIntersectFunction(geom, quadric_intersect);
+    rtcSetGeometryOccludedFunction(geom, quadric_occluded);
+    rtcCommitGeometry(geom);
+    unsigned id = rtcAttachGeometry(g.scene, geom);
+    rtcReleaseGeometry(geom);
+    if (g.records.size() <= id) g.records.resize(id + 1);
+    g.records[id] = {GeometryGroup::Record::Kind::Quadric, int(g.quadrics.size())};
+    g.quadrics.push_back(std::move(q));
+}
+
+void Geometry::add_instance(int proto, const Transform &render_from_instance) {
+    GeometryGroup &p = *groups_.at(size_t(proto));
+    if (!p.committed) {
+        rtcSetSceneFlags(p.scene, RTC_SCENE_FLAG_ROBUST);
+        rtcCommitScene(p.scene);
+        p.committed = true;
+    }
+    RTCGeometry geom = rtcNewGeometry(device_, RTC_GEOMETRY_TYPE_INSTANCE);
+    rtcSetGeometryInstancedScene(geom, p.scene);
+    float xfm[12];  // 3x4 column major
+    const Mat4 &m = render_from_instance.matrix();
+    for (int c = 0; c < 4; ++c)
+        for (int r = 0; r < 3; ++r) xfm[c * 3 + r] = float(m.m[r][c]);
+    rtcSetGeometryTransform(geom, 0, RTC_FORMAT_FLOAT3X4_COLUMN_MAJOR, xfm);
+    rtcCommitGeometry(geom);
+    GeometryGroup &top = *groups_[0];
+    unsigned id = rtcAttachGeometry(top.scene, geom);
+    rtcReleaseGeometry(geom);
+    if (top.records.size() <= id) top.records.resize(id + 1);
+    top.records[id] = {GeometryGroup::Record::Kind::Instance, int(instances_.size())};
+    instances_.push_back({proto, render_from_instance});
+    ++instance_count_;
+}
+
+void Geometry::commit() {
+    GeometryGroup &top = *groups_[0];
+    rtcSetSceneFlags(top.scene, RTC_SCENE_FLAG_ROBUST);
+    rtcSetSceneBuildQuality(top.scene, RTC_BUILD_QUALITY_HIGH);
+    rtcCommitScene(top.scene);
+    top.committed = true;
+    RTCBounds b;
+    rtcGetSceneBounds(top.scene, &b);
+    bmin_ = {b.lower_x, b.lower_y, b.lower_z};
+    bmax_ = {b.upper_x, b.upper_y, b.upper_z};
+    if (!(bmin_.x <= bmax_.x)) bmin_ = bmax_ = {0, 0, 0};
+}
+
+namespace {
+
+/// Error bound of a transformed point (pbrt-v4 Transform::operator()(Point3fi)).
+Vec3f transform_error(const Mat4 &m, Vec3f p, Vec3f err) {
+    Vec3f out;
+    for (int r = 0; r < 3; ++r) {
+        double e = 0, a = 0;
+        for (int c = 0; c < 3; ++c) {
+            e += std::abs(m.m[r][c]) * err[c];
+            a += std::abs(m.m[r][c] * p[c]);
+        }
+        a += std::abs(m.m[r][3]);
+        out[r] = float((gamma_n(3) + 1) * e + gamma_n(3) * a);
+    }
+    return out;
+}
+
+void fill_triangle(const TriangleMesh &m, unsigned prim, float b1, float b2,
+                   SurfaceInteraction &si) {
+    uint32_t i0 = m.indices[3 * prim], i1 = m.indices[3 * prim + 1], i2 = m.indices[3 * prim + 2];
+    Vec3f p0 = m.p[i0], p1 = m.p[i1], p2 = m.p[i2];
+    float b0 = 1.f - b1 - b2;
+    si.p = p0 * b0 + p1 * b1 + p2 * b2;
+    si.p_error = (abs(p0 * b0) + abs(p1 * b1) + abs(p2 * b2)) * gamma_n(7);
+    Vec2f uv0{0, 0}, uv1{1, 0}, uv2{1, 1};
+    if (!m.uv.empty()) {
+        uv0 = m.uv[i0];
+        uv1 = m.uv[i1];
+        uv2 = m.uv[i2];
+    }
+    si.uv = uv0 * b0 + uv1 * b1 + uv2 * b2;
+    // dpdu from the uv parameterisation (pbrt-v4 Triangle::InteractionFromIntersection).
+    Vec2f duv02 = uv0 - uv2, duv12 = uv1 - uv2;
+    Vec3f dp02 = p0 - p2, dp12 = p1 - p2;
+    float det = duv02.x * duv12.y - duv02.y * duv12.x;
+    Vec3f ng = cross(dp02, dp12);
+    float ng_len = length(ng);
+    ng = ng_len > 0 ? ng / ng_len : Vec3f(0, 0, 1);
+    bool degenerate_uv = std::abs(det) < 1e-9f;
+    Vec3f dpdu, dpdv;
+    if (!degenerate_uv) {
+        float inv = 1.f / det;
+        dpdu = (dp02 * duv12.y - dp12 * duv02.y) * inv;
+        dpdv = (dp12 * duv02.x - dp02 * duv12.x) * inv;
+    }
+    if (degenerate_uv || length_squared(cross(dpdu, dpdv)) == 0.f || !std::isfinite(dpdu.x) ||
+        !std::isfinite(dpdv.x)) {
+        Frame f = Frame::from_z(ng);
+        dpdu = f.x;
+        dpdv = f.y;
+    }
+    si.dpdu = dpdu;
+    si.dpdv = dpdv;
+    if (m.flip_normal) ng = -ng;
+    si.n = ng;
+    si.ns = ng;
+    if (!m.n.empty()) {
+        Vec3f ns = m.n[i0] * b0 + m.n[i1] * b1 + m.n[i2] * b2;
+        float l2 = length_squared(ns);
+        if (l2 > 0.f && std::isfinite(l2)) {
+            ns = ns / std::sqrt(l2);
+            // The shading normal is authoritative for orientation (pbrt-v4 SetShadingGeometry).
+            si.n = face_forward(si.n, ns);
+            si.ns = ns;
+        }
+    }
+    si.material = m.material;
+    if (!m.lights.empty()) si.area_light = m.lights[prim];
+}
+
+void fill_quadric(const Quadric &q, Vec3f p_world, SurfaceInteraction &si) {
+    const Mat4 &inv = q.render_from_object.inverse_matrix();
+    Vec3d pw{p_world.x, p_world.y, p_world.z};
+    Vec3d po = to_object(inv, pw, true);
+    Vec3f p_obj, n_obj, dpdu_obj, dpdv_obj, err_obj;
+    Vec2f uv;
+    if (q.kind == Quadric::Kind::Sphere) {
+        // Reproject onto the surface to reduce error (pbrt-v4 6.8.5).
+        double len = std::sqrt(po.x * po.x + po.y * po.y + po.z * po.z);
+        double s = len > 0 ? q.radius / len : 1.0;
+        po = {po.x * s, po.y * s, po.z * s};
+        if (po.x == 0 && po.y == 0) po.x = 1e-5 * q.radius;
+        p_obj = {float(po.x), float(po.y), float(po.z)};
+        err_obj = abs(p_obj) * gamma_n(5);
+        double phi = std::atan2(po.y, po.x);
+        if (phi < 0) phi += 2 * M_PI;
+        double cos_theta = std::clamp(po.z / q.radius, -1.0, 1.0);
+        double theta = std::acos(cos_theta);
+        double theta_zmin = std::acos(std::clamp(double(q.zmin) / q.radius, -1.0, 1.0));
+        double theta_zmax = std::acos(std::clamp(double(q.zmax) / q.radius, -1.0, 1.0));
+        uv = {float(phi / q.phi_max), float((theta - theta_zmin) / (theta_zmax - theta_zmin))};
+        n_obj = normalize(p_obj);
+        dpdu_obj = {float(-q.phi_max * po.y), float(q.phi_max * po.x), 0.f};
+        double zr = std::sqrt(po.x * po.x + po.y * po.y);
+        double cphi = zr > 0 ? po.x / zr : 1, sphi = zr > 0 ? po.y / zr : 0;
+        double dtheta = theta_zmax - theta_zmin;
+        dpdv_obj = {float(dtheta * po.z * cphi), float(dtheta * po.z * sphi),
+                    float(-dtheta * q.radius * std::sin(theta))};
+    } else {
+        po.z = q.height;
+        p_obj = {float(po.x), float(po.y), float(po.z)};
+        err_obj = {0, 0, 0};
+        double r = std::sqrt(po.x * po.x + po.y * po.y);
+        double phi = std::atan2(po.y, po.x);
+        if (phi < 0) phi += 2 * M_PI;
+        uv = {float(phi / q.phi_max),
+              float((q.radius - r) / (q.radius - q.inner_radius))};
+        n_obj = {0, 0, 1};
+        dpdu_obj = {float(-q.phi_max * po.y), float(q.phi_max * po.x), 0.f};
+        double rs = r > 0 ? (q.inner_radius - q.radius) / r : 0.0;
+        dpdv_obj = {float(po.x * rs), float(po.y * rs), 0.f};
+        if (length_squared(dpdu_obj) == 0.f || length_squared(dpdv_obj) == 0.f) {
+            dpdu_obj = {1, 0, 0};
+            dpdv_obj = {0, 1, 0};
+        }
+    }
+    if (q.flip_normal) n_obj = -n_obj;
+    const Transform &t = q.render_from_object;
+    si.p = t.point(p_obj);
+    si.p_error = transform_error(t.matrix(), p_obj, err_obj);
+    si.n = normalize(t.normal(n_obj));
+    si.ns = si.n;
+    si.dpdu = t.vector(dpdu_obj);
+    si.dpdv = t.vector(dpdv_obj);
+    si.uv = uv;
+    si.material = q.material;
+    si.area_light = q.light;
+}
+
+}  // namespace
+
+std::optional<SurfaceInteraction> Geometry::intersect(const Ray &ray) const {
+    RTCIntersectContext ctx;
+    rtcInitIntersectContext(&ctx);
+    RTCRayHit rh;
+    rh.ray.org_x = ray.o.x;
+    rh.ray.org_y = ray.o.y;
+    rh.ray.org_z = ray.o.z;
+    rh.ray.dir_x = ray.d.x;
+    rh.ray.dir_y = ray.d.y;
+    rh.ray.dir_z = ray.d.z;
+    rh.ray.tnear = 0.f;
+    rh.ray.tfar = ray.t_max;
+    rh.ray.time = 0.f;
+    rh.ray.mask = 0xFFFFFFFFu;
+    rh.ray.id = 0;
+    rh.ray.flags = 0;
+    rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+    rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+    rtcIntersect1(groups_[0]->scene, &ctx, &rh);
+    if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) return std::nullopt;
+
+    SurfaceInteraction si;
+    si.t = rh.ray.tfar;
+    const GeometryGroup *g = groups_[0].get();
+    const Transform *inst = nullptr;
+    if (rh.hit.instID[0] != RTC_INVALID_GEOMETRY_ID) {
+        const auto &rec = g->records[rh.hit.instID[0]];
+        const InstanceRec &ir = instances_[size_t(rec.index)];
+        inst = &ir.render_from_instance;
+        g = groups_[size_t(ir.proto)].get();
+    }
+    const auto &rec = g->records[rh.hit.geomID];
+    if (rec.kind == GeometryGroup::Record::Kind::Mesh) {
+        fill_triangle(*g->meshes[size_t(rec.index)], rh.hit.primID, rh.hit.u, rh.hit.v, si);
+    } else {
+        // Quadrics compute their hit from the ray in their group's space.
+        Vec3f o = ray.o, d = ray.d;
+        if (inst) {
+            o = inst->inverse().point(o);
+            d = inst->inverse().vector(d);
+        }
+        fill_quadric(*g->quadrics[size_t(rec.index)], o + d * si.t, si);
+    }
+    if (inst) {
+        Vec3f p_inst = si.p;
+        si.p = inst->point(p_inst);
+        si.p_error = transform_error(inst->matrix(), p_inst, si.p_error);
+        si.n = normalize(inst->normal(si.n));
+        si.ns = normalize(inst->normal(si.ns));
+        si.dpdu = inst->vector(si.dpdu);
+        si.dpdv = inst->vector(si.dpdv);
+        si.area_light = nullptr;  // area lights are not supported on instances (as in pbrt-v4)
+    }
+    si.wo = -normalize(ray.d);
+    return si;
+}
+
+bool Geometry::occluded(const Ray &ray) const {
+    RTCIntersectContext ctx;
+    rtcInitIntersectContext(&ctx);
+    RTCRay r;
+    r.org_x = ray.o.x;
+    r.org_y = ray.o.y;
+    r.org_z = ray.o.z;
+    r.dir_x = ray.d.x;
+    r.dir_y = ray.d.y;
+    r.dir_z = ray.d.z;
+    r.tnear = 0.f;
+    r.tfar = ray.t_max;
+    r.time = 0.f;
+    r.mask = 0xFFFFFFFFu;
+    r.id = 0;
+    r.flags = 0;
+    rtcOccluded1(groups_[0]->scene, &ctx, &r);
+    return r.tfar < 0.f;
+}
+
+}  // namespace tessera

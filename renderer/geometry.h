@@ -1,0 +1,98 @@
+// Scene geometry on Embree 3: triangle meshes, quadrics (spheres, disks) as user geometry, and
+// object instances as Embree instances of prototype scenes.
+//
+// Tessera's render space is world space. Triangle meshes are stored in render space (or in a
+// prototype's space for instanced objects); quadrics keep their object transform and intersect in
+// object space in double precision. Hit points carry an error bound for robust ray spawning
+// (interaction.h). Embree runs in robust mode (RTC_SCENE_FLAG_ROBUST).
+#pragma once
+
+#include <embree3/rtcore.h>
+
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "renderer/interaction.h"
+#include "renderer/transform.h"
+
+namespace tessera {
+
+/// Triangle mesh in the space of the group it is added to.
+struct TriangleMesh {
+    std::vector<Vec3f> p;
+    std::vector<Vec3f> n;    ///< per-vertex shading normals (optional)
+    std::vector<Vec2f> uv;   ///< per-vertex uv (optional; pbrt default (0,0),(1,0),(1,1))
+    std::vector<uint32_t> indices;
+    bool flip_normal = false;  ///< ReverseOrientation xor handedness swap
+    int material = -1;
+    /// Area lights per triangle (nullptr entries when not emissive); empty for non-emissive meshes.
+    std::vector<const Light *> lights;
+    size_t triangle_count() const { return indices.size() / 3; }
+    /// Unit geometric normal of triangle `tri` on its emitting side (pbrt-v4 Triangle::Sample).
+    Vec3f oriented_normal(size_t tri) const;
+    float area(size_t tri) const;
+};
+
+/// pbrt "sphere" (radius, zmin, zmax, phimax) or "disk" (height, radius, innerradius, phimax).
+struct Quadric {
+    enum class Kind { Sphere, Disk } kind = Kind::Sphere;
+    Transform render_from_object;  ///< relative to the group's space
+    float radius = 1, zmin = -1, zmax = 1, phi_max = 2 * kPi;  // sphere
+    float height = 0, inner_radius = 0;                          // disk
+    bool flip_normal = false;
+    int material = -1;
+    const Light *light = nullptr;
+};
+
+/// One Embree scene: the top level, or an instanced object's prototype.
+class GeometryGroup;
+
+/// All geometry of a scene. Build with the add_* calls, then `commit()`; afterwards
+/// `intersect` and `occluded` are thread-safe.
+class Geometry {
+  public:
+    Geometry();
+    ~Geometry();
+    Geometry(const Geometry &) = delete;
+    Geometry &operator=(const Geometry &) = delete;
+
+    /// Group 0 is the top level; `new_prototype` makes an object for instancing.
+    int new_prototype(const std::string &name);
+    int top_level() const { return 0; }
+
+    void add_mesh(int group, TriangleMesh mesh);
+    void add_quadric(int group, const Quadric &q);
+    /// Adds an instance of prototype `proto` at the top level.
+    void add_instance(int proto, const Transform &render_from_instance);
+    /// Builds the BVHs. Call once after adding everything.
+    void commit();
+
+    /// Closest hit along the ray within (0, ray.t_max), or nothing.
+    std::optional<SurfaceInteraction> intersect(const Ray &ray) const;
+    /// True if anything blocks the segment (0, ray.t_max).
+    bool occluded(const Ray &ray) const;
+
+    /// World-space bounds of everything (valid after commit).
+    Vec3f bounds_min() const { return bmin_; }
+    Vec3f bounds_max() const { return bmax_; }
+    size_t triangle_count() const { return triangle_count_; }
+    size_t instance_count() const { return instance_count_; }
+    /// Meshes of the top level (for building area lights).
+    const std::vector<std::unique_ptr<TriangleMesh>> &top_level_meshes() const;
+
+  private:
+    RTCDevice device_ = nullptr;
+    std::vector<std::unique_ptr<GeometryGroup>> groups_;
+    struct InstanceRec {
+        int proto;
+        Transform render_from_instance;
+    };
+    std::vector<InstanceRec> instances_;  // indexed by the instance's geomID in the top level
+    std::vector<int> instance_geom_to_rec_;
+    Vec3f bmin_, bmax_;
+    size_t triangle_count_ = 0, instance_count_ = 0;
+};
+
+}  // namespace tessera

@@ -1,0 +1,84 @@
+// Image files through OpenImageIO: the film's linear multilayer EXR, reading images back for
+// references and `tessera diff`, and atomic writes.
+//
+// EXR channel names (OpenEXR multilayer convention "layer.channel"; the beauty is the
+// unnamed default layer, so every viewer shows it first):
+//   R, G, B                    beauty: mean radiance, linear Rec.709/sRGB primaries
+//   albedo.R, albedo.G, albedo.B    first-hit albedo, mean over samples that hit
+//   normal.X, normal.Y, normal.Z    first-hit shading normal, world space, mean over hits
+//   depth.Z                    first-hit distance along the primary ray, scene units, +inf: no hit
+//   spp.Y                      samples taken per pixel
+// Colour channels may be written as half (option); depth.Z and spp.Y are always 32-bit float
+// (half keeps only 11 significant bits). Compression: ZIP by default.
+//
+// Atomic writes: every writer here writes "<path>.tmp-<pid>" in the target's directory and
+// renames it onto <path> (std::filesystem::rename, atomic on POSIX within one filesystem). On
+// any failure the temporary is removed and std::runtime_error is thrown, so <path> is either
+// the old file or the complete new one, never a partial image.
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "sampling/film.h"
+#include "sampling/image_metrics.h"
+
+namespace tessera {
+
+/// A group of channels of one layer, interleaved per pixel.
+struct ImageLayer {
+    std::string name;                   ///< layer name; "" for the default layer
+    std::vector<std::string> channels;  ///< channel names inside the layer, e.g. {"R","G","B"}
+    std::vector<float> data;            ///< channels.size() floats per pixel, row-major
+    bool always_float = false;          ///< keep 32-bit float even when writing half
+};
+
+/// EXR writer settings.
+struct ExrWriteOptions {
+    bool half = false;                 ///< colour channels as 16-bit half instead of float
+    std::string compression = "zip";   ///< OpenEXR compression ("none", "zip", "piz", ...)
+};
+
+/// Writes the layers of a width x height image to a multichannel EXR at `path`, atomically
+/// (see the file comment). Throws std::invalid_argument for malformed layers and
+/// std::runtime_error when the file cannot be written. Thread-safe for different paths.
+void write_exr(const std::string &path, uint32_t width, uint32_t height,
+               const std::vector<ImageLayer> &layers, const ExrWriteOptions &options = {});
+
+/// Writes the film's beauty, albedo, normal, depth and spp layers (names in the file comment).
+/// Not thread-safe against concurrent add_sample on the film.
+void write_film_exr(const std::string &path, const sampling::Film &film,
+                    const ExrWriteOptions &options = {});
+
+/// Writes an 8-bit RGB image (3 bytes per pixel, row-major) in the format given by the path's
+/// extension (e.g. .png), atomically. Throws std::runtime_error on failure.
+void write_rgb8(const std::string &path, uint32_t width, uint32_t height,
+                const std::vector<uint8_t> &rgb);
+
+/// Reads the colour of an image file as linear float RGB: channels R, G, B when present, else
+/// the first layer with channels "<layer>.R/G/B", else a single channel replicated to grey,
+/// else the first three channels. Integer formats are normalised to [0, 1] without any
+/// transfer-function decoding. Throws std::runtime_error when the file cannot be read.
+sampling::RgbImage read_image_rgb(const std::string &path);
+
+/// Reads the named channels (full names, e.g. "depth.Z") of an image file as floats
+/// interleaved in the order given; sets width and height. Throws std::runtime_error when the
+/// file cannot be read or a channel is missing.
+std::vector<float> read_image_channels(const std::string &path,
+                                       const std::vector<std::string> &channel_names,
+                                       uint32_t &width, uint32_t &height);
+
+/// The channel names of an image file, in the reader's order. Throws std::runtime_error.
+std::vector<std::string> image_channel_names(const std::string &path);
+
+/// The temporary name an atomic write of `path` uses: "<path>.tmp-<pid>".
+std::string temp_path_for(const std::string &path);
+
+/// Runs `write(temp_path)` and renames the temporary onto `path`; removes the temporary and
+/// rethrows (as std::runtime_error) if `write` throws or the rename fails.
+void write_atomically(const std::string &path,
+                      const std::function<void(const std::string &temp_path)> &write);
+
+}  // namespace tessera

@@ -1,0 +1,321 @@
+#include "renderer/material.h"
+
+#include <cstring>
+
+#include "renderer/spectra.h"
+
+namespace tessera {
+
+namespace {
+
+/// Roughness parameters shared by conductor, dielectric and coateddiffuse: "roughness", or
+/// "uroughness"/"vroughness" (which win), remapped to GGX alpha when "remaproughness" is true.
+struct Roughness {
+    const FloatTexture *u = nullptr, *v = nullptr;
+    bool remap = true;
+
+    static Roughness from(const ParamSet &ps, TextureSet &tex) {
+        Roughness r;
+        const FloatTexture *rough = tex.float_param(ps, "roughness", 0.f);
+        r.u = ps.find("uroughness") ? tex.float_param(ps, "uroughness", 0.f) : rough;
+        r.v = ps.find("vroughness") ? tex.float_param(ps, "vroughness", 0.f) : rough;
+        r.remap = ps.get_bool("remaproughness", true);
+        return r;
+    }
+    TrowbridgeReitz eval(const TextureEvalContext &tc) const {
+        float ur = u->evaluate(tc), vr = v->evaluate(tc);
+        if (remap) {
+            ur = TrowbridgeReitz::roughness_to_alpha(ur);
+            vr = TrowbridgeReitz::roughness_to_alpha(vr);
+        }
+        return TrowbridgeReitz(ur, vr);
+    }
+};
+
+Frame shading_frame(const SurfaceInteraction &si) { return Frame::from_xz(si.dpdu, si.ns); }
+
+class DiffuseMaterial final : public Material {
+  public:
+    explicit DiffuseMaterial(const SpectrumTexture *reflectance) : reflectance_(reflectance) {}
+    std::optional<Bsdf> get_bsdf(const SurfaceInteraction &si,
+                                 const TextureEvalContext &tc) const override {
+        DiffuseBxdf b;
+        b.reflectance = clamp_unit(reflectance_->evaluate(tc));
+        return Bsdf(shading_frame(si), b);
+    }
+    uint8_t possible_flags() const override { return kBxdfReflection | kBxdfDiffuse; }
+    bool textured() const override { return true; }
+    std::string describe() const override { return "diffuse"; }
+
+    static Rgb clamp_unit(Rgb c) {
+        return {clamp(c.r, 0.f, 1.f), clamp(c.g, 0.f, 1.f), clamp(c.b, 0.f, 1.f)};
+    }
+
+  private:
+    const SpectrumTexture *reflectance_;
+};
+
+class ConductorMaterial final : public Material {
+  public:
+    ConductorMaterial(const SpectrumTexture *eta, const SpectrumTexture *k,
+                      const SpectrumTexture *reflectance, Roughness rough)
+        : eta_(eta), k_(k), reflectance_(reflectance), rough_(rough) {}
+    std::optional<Bsdf> get_bsdf(const SurfaceInteraction &si,
+                                 const TextureEvalContext &tc) const override {
+        ConductorBxdf b;
+        b.distrib = rough_.eval(tc);
+        if (reflectance_) {
+            b.eta = Rgb(1.f);
+            b.k = conductor_k_from_reflectance(reflectance_->evaluate(tc));
+        } else {
+            b.eta = eta_->evaluate(tc);
+            b.k = k_->evaluate(tc);
+        }
+        return Bsdf(shading_frame(si), b);
+    }
+    uint8_t possible_flags() const override {
+        return kBxdfReflection | kBxdfGlossy | kBxdfSpecular;
+    }
+    bool textured() const override { return true; }
+    std::string describe() const override { return "conductor"; }
+
+  private:
+    const SpectrumTexture *eta_, *k_, *reflectance_;
+    Roughness rough_;
+};
+
+class DielectricMaterial final : public Material {
+  public:
+    DielectricMaterial(float eta, Roughness rough) : eta_(eta), rough_(rough) {}
+    std::optional<Bsdf> get_bsdf(const SurfaceInteraction &si,
+                                 const TextureEvalContext &tc) const override {
+        DielectricBxdf b;
+        b.eta = eta_;
+        b.distrib = rough_.eval(tc);
+        return Bsdf(shading_frame(si), b);
+    }
+    uint8_t possible_flags() const override {
+        return kBxdfReflection | kBxdfTransmission | kBxdfSpecular | kBxdfGlossy;
+    }
+    bool textured() const override { return true; }
+    std::string describe() const override { return "dielectric eta " + std::to_string(eta_); }
+
+  private:
+    float eta_;
+    Roughness rough_;
+};
+
+class CoatedDiffuseMaterial final : public Material {
+  public:
+    CoatedDiffuseMaterial(const SpectrumTexture *reflectance, const SpectrumTexture *albedo,
+                          const FloatTexture *thickness, const FloatTexture *g, float eta,
+                          Roughness rough)
+        : reflectance_(reflectance), albedo_(albedo), thickness_(thickness), g_(g), eta_(eta),
+          rough_(rough) {}
+    std::optional<Bsdf> get_bsdf(const SurfaceInteraction &si,
+                                 const TextureEvalContext &tc) const override {
+        CoatedDiffuseBxdf b(DiffuseMaterial::clamp_unit(reflectance_->evaluate(tc)), eta_,
+                            rough_.eval(tc), thickness_->evaluate(tc),
+                            DiffuseMaterial::clamp_unit(albedo_->evaluate(tc)),
+                            g_->evaluate(tc));
+        return Bsdf(shading_frame(si), b);
+    }
+    uint8_t possible_flags() const override {
+        return kBxdfReflection | kBxdfDiffuse | kBxdfGlossy | kBxdfSpecular;
+    }
+    bool textured() const override { return true; }
+    std::string describe() const override { return "coateddiffuse"; }
+
+  private:
+    const SpectrumTexture *reflectance_, *albedo_;
+    const FloatTexture *thickness_, *g_;
+    float eta_;
+    Roughness rough_;
+};
+
+class InterfaceMaterial final : public Material {
+  public:
+    std::optional<Bsdf> get_bsdf(const SurfaceInteraction &,
+                                 const TextureEvalContext &) const override {
+        return std::nullopt;
+    }
+    uint8_t possible_flags() const override { return 0; }
+    bool textured() const override { return false; }
+    std::string describe() const override { return "interface"; }
+};
+
+/// pbrt-v4 MixMaterial: picks one of two materials per shading point with probability
+/// `amount` for the second, using a hash of the point and direction (deterministic, so the
+/// choice does not consume sample dimensions).
+class MixMaterial final : public Material {
+  public:
+    MixMaterial(const Material *a, const Material *b, const FloatTexture *amount)
+        : a_(a), b_(b), amount_(amount) {}
+    std::optional<Bsdf> get_bsdf(const SurfaceInteraction &si,
+                                 const TextureEvalContext &tc) const override {
+        float amt = amount_->evaluate(tc);
+        const Material *m = a_;
+        if (amt >= 1.f) {
+            m = b_;
+        } else if (amt > 0.f) {
+            uint32_t words[6];
+            std::memcpy(words, &si.p, sizeof(float) * 3);
+            std::memcpy(words + 3, &si.wo, sizeof(float) * 3);
+            uint64_t h = 1469598103934665603ull;
+            for (uint32_t w : words) h = (h ^ w) * 1099511628211ull;
+            h ^= h >> 33;
+            h *= 0xff51afd7ed558ccdull;
+            h ^= h >> 33;
+            float u = float(h >> 40) * 0x1p-24f;
+            m = u < amt ? b_ : a_;
+        }
+        if (!m) return std::nullopt;
+        return m->get_bsdf(si, tc);
+    }
+    uint8_t possible_flags() const override {
+        return uint8_t((a_ ? a_->possible_flags() : 0) | (b_ ? b_->possible_flags() : 0));
+    }
+    bool textured() const override { return true; }
+    std::string describe() const override { return "mix"; }
+
+  private:
+    const Material *a_, *b_;
+    const FloatTexture *amount_;
+};
+
+/// Conductor eta/k default: copper (pbrt-v4 "metal-Cu-eta" / "metal-Cu-k").
+Rgb copper(bool k) {
+    Rgb eta(0.2f, 0.92f, 1.1f), kk(3.9f, 2.45f, 2.14f);
+    named_metal("Cu", &eta, &kk);
+    return k ? kk : eta;
+}
+
+/// Scalar IOR from "eta" given as a float, a float texture (constant only) or a spectrum
+/// (named glass or RGB: dispersion is not modelled, the green value is used).
+float scalar_eta(const ParamSet &ps, const FileLoc &loc, float def) {
+    const Param *p = ps.find("eta");
+    if (!p) return def;
+    if (p->type == "float") return ps.get_float("eta", def);
+    if (p->type == "texture") {
+        warn(loc, "textured \"eta\" is not supported; using " + std::to_string(def));
+        p->used = true;
+        return def;
+    }
+    std::optional<Rgb> c = ps.get_rgb("eta", false, true);
+    if (!c) return def;
+    if (std::abs(c->r - c->b) > 1e-3f)
+        warn(loc, "spectrally varying \"eta\" (dispersion) is approximated by its value at the "
+                  "green primary");
+    return c->g;
+}
+
+}  // namespace
+
+MaterialSet::MaterialSet(const std::map<std::string, MaterialDesc> &descs, TextureSet &textures) {
+    for (const auto &[name, desc] : descs) build(name, descs, textures, 0);
+}
+
+int MaterialSet::index(const std::string &name) const {
+    auto it = by_name_.find(name);
+    return it == by_name_.end() ? -1 : it->second;
+}
+
+int MaterialSet::default_index() {
+    if (default_ < 0) {
+        static const ParamSet empty;
+        (void)empty;
+        struct Const final : SpectrumTexture {
+            Rgb evaluate(const TextureEvalContext &) const override { return Rgb(0.5f); }
+            std::string describe() const override { return "constant 0.5"; }
+        };
+        static const Const half;
+        materials_.push_back(std::make_unique<DiffuseMaterial>(&half));
+        default_ = int(materials_.size()) - 1;
+    }
+    return default_;
+}
+
+int MaterialSet::build(const std::string &name, const std::map<std::string, MaterialDesc> &descs,
+                       TextureSet &tex, int depth) {
+    if (auto it = by_name_.find(name); it != by_name_.end()) return it->second;
+    auto dit = descs.find(name);
+    if (dit == descs.end()) return -1;
+    const MaterialDesc &d = dit->second;
+    if (depth > 16) throw SceneError(d.loc, "material \"" + name + "\": mix nesting too deep");
+    const ParamSet &ps = d.params;
+    std::unique_ptr<Material> m;
+    std::string type = d.type;
+    if (ps.find("displacement"))
+        warn(d.loc, "bump mapping (\"displacement\") is not supported; ignored");
+    if (ps.find("normalmap"))
+        warn(d.loc, "normal mapping (\"normalmap\") is not supported; ignored");
+    auto mark = [&](const char *p) {
+        if (const Param *x = ps.find(p)) x->used = true;
+    };
+    mark("displacement");
+    mark("normalmap");
+
+    if (type == "thindielectric") {
+        warn(d.loc, "\"thindielectric\" is approximated by \"dielectric\"");
+        type = "dielectric";
+    } else if (type == "coatedconductor") {
+        warn(d.loc, "\"coatedconductor\" is approximated by \"conductor\" (no coat)");
+        type = "conductor";
+    } else if (type == "diffusetransmission") {
+        warn(d.loc, "\"diffusetransmission\" is approximated by \"diffuse\" (no transmission)");
+        type = "diffuse";
+    }
+
+    if (type == "diffuse") {
+        m = std::make_unique<DiffuseMaterial>(
+            tex.spectrum_param(ps, "reflectance", Rgb(0.5f), false));
+    } else if (type == "conductor") {
+        const SpectrumTexture *refl = tex.spectrum_param(ps, "reflectance", std::nullopt, false);
+        const SpectrumTexture *eta = nullptr, *k = nullptr;
+        if (!refl) {
+            eta = tex.spectrum_param(ps, "eta", copper(false), true);
+            k = tex.spectrum_param(ps, "k", copper(true), true);
+        }
+        m = std::make_unique<ConductorMaterial>(eta, k, refl, Roughness::from(ps, tex));
+    } else if (type == "dielectric") {
+        m = std::make_unique<DielectricMaterial>(scalar_eta(ps, d.loc, 1.5f),
+                                                 Roughness::from(ps, tex));
+    } else if (type == "coateddiffuse") {
+        if (ps.get_int("maxdepth", 10) != 10 || ps.get_int("nsamples", 1) != 1) {
+            // Random-walk controls of pbrt's stochastic layered BSDF: no closed-form meaning.
+        }
+        m = std::make_unique<CoatedDiffuseMaterial>(
+            tex.spectrum_param(ps, "reflectance", Rgb(0.5f), false),
+            tex.spectrum_param(ps, "albedo", Rgb(0.f), false),
+            tex.float_param(ps, "thickness", 0.01f), tex.float_param(ps, "g", 0.f),
+            scalar_eta(ps, d.loc, 1.5f), Roughness::from(ps, tex));
+    } else if (type == "interface" || type == "" || type == "none") {
+        m = std::make_unique<InterfaceMaterial>();
+    } else if (type == "mix") {
+        std::vector<std::string> names = ps.get_strings("materials");
+        if (names.size() != 2)
+            throw SceneError(d.loc, "mix material \"" + name + "\" needs exactly two \"materials\"");
+        const Material *ma = nullptr, *mb = nullptr;
+        for (int i = 0; i < 2; ++i) {
+            int idx = build(names[size_t(i)], descs, tex, depth + 1);
+            if (idx < 0)
+                throw SceneError(d.loc, "mix material \"" + name + "\": unknown material \"" +
+                                            names[size_t(i)] + "\"");
+            (i == 0 ? ma : mb) = materials_[size_t(idx)].get();
+        }
+        m = std::make_unique<MixMaterial>(ma, mb, tex.float_param(ps, "amount", 0.5f));
+    } else {
+        warn(d.loc, "material type \"" + type +
+                        "\" is not supported; rendering it as diffuse (reflectance 0.5)");
+        m = std::make_unique<DiffuseMaterial>(
+            tex.spectrum_param(ps, "reflectance", Rgb(0.5f), false));
+        for (const Param &p : ps.params) p.used = true;
+    }
+    ps.report_unused("material \"" + name + "\"");
+    materials_.push_back(std::move(m));
+    int idx = int(materials_.size()) - 1;
+    by_name_[name] = idx;
+    return idx;
+}
+
+}  // namespace tessera

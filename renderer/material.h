@@ -1,0 +1,56 @@
+// pbrt-v4 materials: turn texture-evaluated parameters into a Bsdf at a shading point.
+//
+// Supported: diffuse, conductor, dielectric, coateddiffuse (closed-form layered approximation,
+// see CoatedDiffuseBxdf), interface (no surface: rays pass through), mix (pbrt-v4's
+// deterministic per-point choice). Others are approximated with a warning naming file:line
+// (thindielectric -> dielectric, coatedconductor -> conductor, diffusetransmission -> diffuse).
+// Parameter names and defaults are pbrt-v4's (materials.cpp); see bsdf.h for the models.
+#pragma once
+
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "renderer/bsdf.h"
+#include "renderer/interaction.h"
+#include "renderer/scene_desc.h"
+#include "renderer/texture.h"
+
+namespace tessera {
+
+class Material {
+  public:
+    virtual ~Material() = default;
+    /// The BSDF at a shading point; nullopt for "interface" (the ray continues). `tc` carries
+    /// the texture lookup point and footprint. Thread-safe.
+    virtual std::optional<Bsdf> get_bsdf(const SurfaceInteraction &si,
+                                         const TextureEvalContext &tc) const = 0;
+    /// Union of the lobes this material can produce (BxdfFlags), for SceneFeatures.
+    virtual uint8_t possible_flags() const = 0;
+    /// True if the material reads a non-constant texture.
+    virtual bool textured() const = 0;
+    virtual std::string describe() const = 0;
+};
+
+/// Builds every material of a scene, indexed by name. `materials` are the scene's named and
+/// anonymous materials (mix refers to others by name). Throws SceneError with file:line.
+class MaterialSet {
+  public:
+    MaterialSet(const std::map<std::string, MaterialDesc> &descs, TextureSet &textures);
+    /// Index of a material by name, or -1 if absent.
+    int index(const std::string &name) const;
+    /// Index of the default material (pbrt-v4: diffuse, reflectance 0.5), created on demand.
+    int default_index();
+    std::vector<std::unique_ptr<Material>> release() { return std::move(materials_); }
+    const std::vector<std::unique_ptr<Material>> &materials() const { return materials_; }
+
+  private:
+    int build(const std::string &name, const std::map<std::string, MaterialDesc> &descs,
+              TextureSet &textures, int depth);
+    std::vector<std::unique_ptr<Material>> materials_;
+    std::map<std::string, int> by_name_;
+    int default_ = -1;
+};
+
+}  // namespace tessera

@@ -1,0 +1,240 @@
+#include "renderer/path_integrator.h"
+
+#include <cstdio>
+
+namespace tessera {
+
+namespace {
+
+/// Screen-space derivatives of p and (u, v) at a hit (pbrt-v4 SurfaceInteraction::
+/// ComputeDifferentials): from the camera ray's differentials at the first hit, else from the
+/// camera's approximation.
+void compute_differentials(SurfaceInteraction &si, const CameraRay *cray,
+                           const PerspectiveCamera &camera, int spp) {
+    Vec3f n = si.n;
+    bool done = false;
+    if (cray && cray->has_differentials) {
+        float dx = dot(n, cray->rx_d), dy = dot(n, cray->ry_d);
+        if (dx != 0.f && dy != 0.f) {
+            float d = -dot(n, si.p);
+            float tx = (-dot(n, cray->rx_o) - d) / dx;
+            float ty = (-dot(n, cray->ry_o) - d) / dy;
+            if (std::isfinite(tx) && std::isfinite(ty)) {
+                float scale = std::max(0.125f, 1.f / std::sqrt(float(std::max(spp, 1))));
+                si.dpdx = (cray->rx_o + cray->rx_d * tx - si.p) * scale;
+                si.dpdy = (cray->ry_o + cray->ry_d * ty - si.p) * scale;
+                done = true;
+            }
+        }
+    }
+    if (!done) camera.approximate_dp_dxy(si.p, n, spp, &si.dpdx, &si.dpdy);
+    float ata00 = dot(si.dpdu, si.dpdu), ata01 = dot(si.dpdu, si.dpdv),
+          ata11 = dot(si.dpdv, si.dpdv);
+    float inv_det = 1.f / (ata00 * ata11 - ata01 * ata01);
+    if (!std::isfinite(inv_det)) inv_det = 0.f;
+    float atb0x = dot(si.dpdu, si.dpdx), atb1x = dot(si.dpdv, si.dpdx);
+    float atb0y = dot(si.dpdu, si.dpdy), atb1y = dot(si.dpdv, si.dpdy);
+    auto c = [](float v) { return std::isfinite(v) ? clamp(v, -1e8f, 1e8f) : 0.f; };
+    si.dudx = c((ata11 * atb0x - ata01 * atb1x) * inv_det);
+    si.dvdx = c((ata00 * atb1x - ata01 * atb0x) * inv_det);
+    si.dudy = c((ata11 * atb0y - ata01 * atb1y) * inv_det);
+    si.dvdy = c((ata00 * atb1y - ata01 * atb0y) * inv_det);
+}
+
+TextureEvalContext texture_context(const SurfaceInteraction &si) {
+    TextureEvalContext tc;
+    tc.p = si.p;
+    tc.dpdx = si.dpdx;
+    tc.dpdy = si.dpdy;
+    tc.n = si.n;
+    tc.uv = si.uv;
+    tc.dudx = si.dudx;
+    tc.dudy = si.dudy;
+    tc.dvdx = si.dvdx;
+    tc.dvdy = si.dvdy;
+    return tc;
+}
+
+}  // namespace
+
+PathIntegrator::PathIntegrator(const Scene &scene, uint32_t seed, int max_depth,
+                               DirectStrategy strategy)
+    : scene_(scene), seed_(seed), max_depth_(max_depth), strategy_(strategy),
+      spp_hint_(scene.settings.spp) {}
+
+std::string PathIntegrator::describe() const {
+    const char *s[] = {"MIS", "light sampling only", "BSDF sampling only"};
+    char buf[160];
+    std::snprintf(buf, sizeof(buf), "path tracer, max depth %d, %s, seed %u", max_depth_,
+                  s[int(strategy_)], seed_);
+    return buf;
+}
+
+Sample PathIntegrator::evaluate(const CameraSample &cs) const {
+    sampling::SobolSampler sampler(seed_);
+    sampler.start_pixel_sample(cs.px, cs.py, cs.index);
+    // Filter importance sampling: the film offset (fx, fy) in [0,1)^2 is warped through the
+    // pixel filter; the sample stays in pixel (px, py) with weight 1.
+    Vec2f offset = scene_.filter.sample({cs.fx, cs.fy});
+    Vec2f p_raster{float(cs.px) + 0.5f + offset.x, float(cs.py) + 0.5f + offset.y};
+    Vec2f u_lens = sampler.get_2d();
+    CameraRay cray = scene_.camera->generate_ray(p_raster, u_lens);
+    PathResult r = trace(cray, sampler);
+    Sample s;
+    s.radiance = r.L;
+    s.albedo = r.albedo;
+    s.normal = r.normal;
+    s.depth = r.depth;
+    s.rays = r.rays;
+    return s;
+}
+
+Rgb PathIntegrator::radiance(const Ray &ray, uint32_t px, uint32_t py, uint32_t index) const {
+    sampling::SobolSampler sampler(seed_);
+    sampler.start_pixel_sample(px, py, index);
+    (void)sampler.get_2d();  // keep the dimension layout of evaluate()
+    CameraRay cray;
+    cray.ray = ray;
+    cray.has_differentials = false;
+    return trace(cray, sampler).L;
+}
+
+PathIntegrator::PathResult PathIntegrator::trace(const CameraRay &cray,
+                                                 sampling::SobolSampler &sampler) const {
+    PathResult res;
+    const Scene &sc = scene_;
+    Ray ray = cray.ray;
+    Rgb L(0.f), beta(1.f);
+    bool specular_bounce = false, any_non_specular = false;
+    float eta_scale = 1.f;
+    float p_bsdf = 1.f;  // solid-angle pdf of the last BSDF sample
+    LightSampleContext prev_ctx;
+    int depth = 0, skips = 0;
+    const bool use_nee = strategy_ != DirectStrategy::BsdfOnly;
+    const bool use_bsdf_emission = strategy_ != DirectStrategy::LightOnly;
+    const bool need_differentials = sc.features.textures;
+    (void)any_non_specular;
+
+    while (true) {
+        std::optional<SurfaceInteraction> hit = sc.geometry->intersect(ray);
+        ++res.rays;
+        if (!hit) {
+            // Escaped: infinite lights, MIS-weighted against light sampling.
+            for (const Light *light : sc.infinite_lights) {
+                Rgb Le = light->Le(ray.d);
+                if (Le.is_black()) continue;
+                if (depth == 0 || specular_bounce) {
+                    L += beta * Le;
+                } else if (use_bsdf_emission) {
+                    float w = 1.f;
+                    if (use_nee) {
+                        float p_l = sc.light_sampler->pmf(light) *
+                                    light->pdf_li(prev_ctx, ray.d, Vec3f(), Vec3f());
+                        w = power_heuristic(p_bsdf, p_l);
+                    }
+                    L += beta * Le * w;
+                }
+            }
+            break;
+        }
+        SurfaceInteraction &si = *hit;
+        if (depth == 0 && skips == 0) {
+            res.depth = si.t * length(ray.d);
+            res.normal = si.ns;
+        }
+        // Emission from an area light hit by this ray.
+        if (si.area_light) {
+            Rgb Le = si.area_light->L(si.p, si.n, si.uv, si.wo);
+            if (!Le.is_black()) {
+                if (depth == 0 || specular_bounce) {
+                    L += beta * Le;
+                } else if (use_bsdf_emission) {
+                    float w = 1.f;
+                    if (use_nee) {
+                        float p_l = sc.light_sampler->pmf(si.area_light) *
+                                    si.area_light->pdf_li(prev_ctx, normalize(ray.d), si.p, si.n);
+                        w = power_heuristic(p_bsdf, p_l);
+                    }
+                    L += beta * Le * w;
+                }
+            }
+        }
+        if (need_differentials)
+            compute_differentials(si, depth == 0 ? &cray : nullptr, *sc.camera, spp_hint_);
+        TextureEvalContext tc = texture_context(si);
+        std::optional<Bsdf> bsdf;
+        if (si.material >= 0) bsdf = sc.materials[size_t(si.material)]->get_bsdf(si, tc);
+        if (!bsdf) {
+            // "interface": no surface here; continue the ray without a bounce.
+            if (++skips > 256) break;
+            ray = si.spawn_ray(ray.d);
+            continue;
+        }
+        if (depth == 0) res.albedo = bsdf->albedo_hint();
+        if (depth++ == max_depth_) break;
+
+        // Next-event estimation.
+        uint8_t flags = bsdf->flags();
+        if (use_nee && bsdf->has_non_specular() && sc.light_sampler) {
+            float u_light = sampler.get_1d();
+            Vec2f u2 = sampler.get_2d();
+            LightSampleContext ctx{si.p, si.n};
+            if (auto sampled = sc.light_sampler->sample(u_light)) {
+                const Light *light = sampled->light;
+                if (auto ls = light->sample_li(ctx, u2); ls && !ls->L.is_black() && ls->pdf > 0) {
+                    Rgb f = bsdf->f(si.wo, ls->wi) * absdot(ls->wi, si.ns);
+                    if (!f.is_black()) {
+                        LightType lt = light->type();
+                        Ray shadow = (lt == LightType::Infinite || lt == LightType::DeltaDirection)
+                                         ? si.spawn_ray(ls->wi)
+                                         : si.spawn_ray_to(ls->p_light);
+                        ++res.rays;
+                        if (!sc.geometry->occluded(shadow)) {
+                            float p_l = sampled->pmf * ls->pdf;
+                            if (is_delta_light(lt)) {
+                                L += beta * f * ls->L / p_l;
+                            } else {
+                                float w = use_bsdf_emission
+                                              ? power_heuristic(p_l, bsdf->pdf(si.wo, ls->wi))
+                                              : 1.f;
+                                L += beta * f * ls->L * (w / p_l);
+                            }
+                        }
+                    }
+                }
+            }
+        } else if (use_nee) {
+            // Keep the dimension layout fixed whatever the material.
+            (void)sampler.get_1d();
+            (void)sampler.get_2d();
+        }
+
+        // BSDF sampling for the next direction.
+        float uc = sampler.get_1d();
+        Vec2f u = sampler.get_2d();
+        std::optional<BsdfSample> bs = bsdf->sample_f(si.wo, uc, u);
+        if (!bs || bs->pdf <= 0.f || bs->f.is_black()) break;
+        beta *= bs->f * (absdot(bs->wi, si.ns) / bs->pdf);
+        p_bsdf = bs->pdf_is_proportional ? bsdf->pdf(si.wo, bs->wi) : bs->pdf;
+        specular_bounce = bs->is_specular();
+        any_non_specular |= !specular_bounce;
+        if (bs->is_transmission()) eta_scale *= sqr(bs->eta);
+        prev_ctx = LightSampleContext{si.p, si.n};
+        ray = si.spawn_ray(bs->wi);
+        (void)flags;
+
+        // Russian roulette (pbrt-v4): on throughput scaled by the squared relative IOR.
+        Rgb rr_beta = beta * eta_scale;
+        float u_rr = sampler.get_1d();
+        if (rr_beta.max_value() < 1.f && depth > 1) {
+            float q = std::max(0.f, 1.f - rr_beta.max_value());
+            if (u_rr < q) break;
+            beta /= 1.f - q;
+        }
+        if (beta.is_black()) break;
+    }
+    res.L = L;
+    return res;
+}
+
+}  // namespace tessera

@@ -1,0 +1,75 @@
+// A renderable scene: geometry, materials, lights, textures, camera and render settings, built
+// from a SceneDesc (pbrt-v4 file or OBJ) by scene_builder.cpp.
+#pragma once
+
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "renderer/camera.h"
+#include "renderer/geometry.h"
+#include "renderer/light_sampler.h"
+#include "renderer/lights.h"
+#include "renderer/material.h"
+#include "renderer/texture.h"
+
+namespace tessera {
+
+/// What a scene has. Computed at load; what a scene lacks costs nothing (no texture system,
+/// no environment distribution, no light sampler work for absent light types).
+struct SceneFeatures {
+    bool textures = false;        ///< any texture (procedural or image)
+    bool image_textures = false;  ///< the OpenImageIO TextureSystem exists
+    bool specular = false;        ///< some material has a specular (delta) lobe
+    bool transmission = false;    ///< some material transmits
+    bool emissive_shapes = false; ///< area lights
+    bool environment = false;     ///< an infinite light
+    bool environment_map = false; ///< an image-based infinite light (2D distribution built)
+    bool delta_lights = false;    ///< point, spot or distant lights
+    bool instances = false;       ///< object instancing
+    bool quadrics = false;        ///< spheres or disks (user geometry)
+    std::string describe() const;
+};
+
+/// Settings that come from the scene file and can be overridden on the command line.
+struct RenderSettings {
+    int width = 1280, height = 720;  ///< pbrt-v4 film defaults
+    int spp = 16;                    ///< pbrt-v4 sampler default pixelsamples
+    int max_depth = 5;               ///< pbrt-v4 path integrator default
+    bool regularize = false;
+    uint32_t seed = 0;
+    std::string output;              ///< Film "filename" (pbrt default "pbrt.exr")
+    std::string scene_file;
+};
+
+/// Command-line overrides; unset fields keep the scene file's values.
+struct SceneOverrides {
+    std::optional<int> width, height, spp, max_depth;
+    std::optional<uint32_t> seed;
+};
+
+class Scene {
+  public:
+    std::unique_ptr<Geometry> geometry;
+    std::unique_ptr<TextureSet> textures;
+    std::vector<std::unique_ptr<Material>> materials;
+    std::vector<std::unique_ptr<Light>> lights;
+    std::vector<const Light *> infinite_lights;
+    std::unique_ptr<PowerLightSampler> light_sampler;
+    std::unique_ptr<PerspectiveCamera> camera;
+    PixelFilter filter;
+    RenderSettings settings;
+    SceneFeatures features;
+    /// One paragraph for logs: sizes, features, light count.
+    std::string describe() const;
+};
+
+/// Builds a scene from its description. Throws SceneError (file:line) on bad input.
+std::unique_ptr<Scene> build_scene(const SceneDesc &desc, const SceneOverrides &overrides);
+
+/// Loads a scene file by extension: .pbrt (pbrt-v4), .obj (with a default camera and light),
+/// .ply (a single mesh with a default camera and light). Throws SceneError on bad input.
+std::unique_ptr<Scene> load_scene(const std::string &path, const SceneOverrides &overrides);
+
+}  // namespace tessera

@@ -1,0 +1,483 @@
+// Turns a SceneDesc into a renderable Scene: settings, textures, materials, Embree geometry,
+// area lights, other lights and the light sampler. pbrt-v4 defaults throughout.
+#include <filesystem>
+#include <sstream>
+
+#include "renderer/mesh_io.h"
+#include "renderer/default_view.h"
+#if __has_include("renderer/obj_loader.h")
+#include "renderer/obj_loader.h"
+#define TESSERA_HAVE_OBJ 1
+#endif
+#include "renderer/pbrt_parser.h"
+#include "renderer/scene.h"
+
+namespace tessera {
+
+namespace fs = std::filesystem;
+
+std::string SceneFeatures::describe() const {
+    std::string s;
+    auto add = [&](bool f, const char *name) {
+        if (!f) return;
+        if (!s.empty()) s += ", ";
+        s += name;
+    };
+    add(textures, "textures");
+    add(image_textures, "image textures");
+    add(specular, "specular");
+    add(transmission, "transmission");
+    add(emissive_shapes, "area lights");
+    add(environment, "environment");
+    add(environment_map, "environment map");
+    add(delta_lights, "delta lights");
+    add(instances, "instances");
+    add(quadrics, "quadrics");
+    return s.empty() ? "(none)" : s;
+}
+
+std::string Scene::describe() const {
+    std::ostringstream os;
+    os << settings.width << "x" << settings.height << ", " << settings.spp << " spp, max depth "
+       << settings.max_depth << "; " << geometry->triangle_count() << " triangles, "
+       << geometry->instance_count() << " instances, " << materials.size() << " materials, "
+       << lights.size() << " lights; " << filter.describe() << "; features: "
+       << features.describe();
+    return os.str();
+}
+
+namespace {
+
+std::string resolve(const std::string &base_dir, const std::string &file) {
+    fs::path p(file);
+    if (p.is_absolute() || base_dir.empty()) return p.string();
+    return (fs::path(base_dir) / p).string();
+}
+
+void apply_settings(const SceneDesc &d, const SceneOverrides &ov, Scene &sc) {
+    RenderSettings &s = sc.settings;
+    s.scene_file = d.main_file;
+    if (d.film.present) {
+        const ParamSet &ps = d.film.params;
+        if (d.film.type != "rgb")
+            warn(d.film.loc, "Film \"" + d.film.type + "\" is rendered as an \"rgb\" film");
+        s.width = ps.get_int("xresolution", 1280);
+        s.height = ps.get_int("yresolution", 720);
+        s.output = ps.get_string("filename", "pbrt.exr");
+        if (ps.find("cropwindow") || ps.find("pixelbounds"))
+            warn(d.film.loc, "\"cropwindow\"/\"pixelbounds\" are not supported: the whole film "
+                             "is rendered");
+        for (const char *ignored : {"cropwindow", "pixelbounds", "diagonal", "savefp16",
+                                    "sensor", "iso", "whitebalance", "maxcomponentvalue"}) {
+            if (const Param *p = ps.find(ignored)) {
+                if (std::string(ignored) == "iso" || std::string(ignored) == "whitebalance" ||
+                    (std::string(ignored) == "sensor" &&
+                     ps.get_string("sensor", "cie1931") != "cie1931"))
+                    warn(p->loc, std::string("Film \"") + ignored +
+                                     "\" is not supported (no sensor simulation); ignored");
+                p->used = true;
+            }
+        }
+        ps.report_unused("Film");
+    } else {
+        s.output = "pbrt.exr";
+    }
+    if (d.sampler.present) {
+        s.spp = d.sampler.params.get_int("pixelsamples", 16);
+        // Tessera always uses its Owen-scrambled Sobol sequence; the other sampler parameters
+        // (seed, randomization, jitter) select variants of equal expectation.
+        if (const Param *p = d.sampler.params.find("seed")) {
+            s.seed = uint32_t(d.sampler.params.get_int("seed", 0));
+            p->used = true;
+        }
+        for (const Param &p : d.sampler.params.params) p.used = true;
+    }
+    if (d.integrator.present) {
+        const ParamSet &ps = d.integrator.params;
+        const std::string &t = d.integrator.type;
+        if (t != "path" && t != "volpath")
+            warn(d.integrator.loc, "Integrator \"" + t +
+                                       "\" is not supported; using the \"path\" integrator");
+        s.max_depth = ps.get_int("maxdepth", 5);
+        s.regularize = ps.get_bool("regularize", false);
+        if (s.regularize)
+            warn(d.integrator.loc, "\"regularize\" is not supported; ignored");
+        if (const Param *p = ps.find("lightsampler")) {
+            std::string ls = ps.get_string("lightsampler", "bvh");
+            if (ls != "power")
+                warn(p->loc, "light sampler \"" + ls +
+                                 "\" replaced by \"power\" (same expectation, other noise)");
+        }
+        ps.report_unused("Integrator");
+    }
+    if (ov.width) s.width = *ov.width;
+    if (ov.height) s.height = *ov.height;
+    if (ov.spp) s.spp = *ov.spp;
+    if (ov.max_depth) s.max_depth = *ov.max_depth;
+    if (ov.seed) s.seed = *ov.seed;
+    if (s.width <= 0 || s.height <= 0)
+        throw SceneError(d.film.loc, "film resolution must be positive");
+    if (s.spp <= 0) throw SceneError(d.sampler.loc, "pixelsamples must be positive");
+
+    // Pixel filter (pbrt-v4 default: gaussian, radius 1.5, sigma 0.5).
+    std::string ft = d.filter.present ? d.filter.type : "gaussian";
+    const ParamSet &fp = d.filter.params;
+    if (ft == "box") {
+        sc.filter = PixelFilter(PixelFilter::Kind::Box,
+                                {fp.get_float("xradius", 0.5f), fp.get_float("yradius", 0.5f)});
+    } else if (ft == "triangle") {
+        sc.filter = PixelFilter(PixelFilter::Kind::Triangle,
+                                {fp.get_float("xradius", 2.f), fp.get_float("yradius", 2.f)});
+    } else {
+        if (ft != "gaussian")
+            warn(d.filter.loc, "PixelFilter \"" + ft +
+                                   "\" (negative lobes) is replaced by the gaussian filter");
+        float r = ft == "gaussian" ? 1.5f : 1.5f;
+        sc.filter = PixelFilter(PixelFilter::Kind::Gaussian,
+                                {ft == "gaussian" ? fp.get_float("xradius", r) : r,
+                                 ft == "gaussian" ? fp.get_float("yradius", r) : r},
+                                ft == "gaussian" ? fp.get_float("sigma", 0.5f) : 0.5f);
+        if (ft != "gaussian")
+            for (const Param &p : fp.params) p.used = true;
+    }
+    if (d.filter.present) fp.report_unused("PixelFilter");
+
+    // Camera.
+    float fov = 90.f, lens_radius = 0.f, focal_distance = 1e6f;
+    std::vector<float> sw;
+    if (d.camera.present) {
+        const ParamSet &cp = d.camera.params;
+        if (d.camera.type != "perspective")
+            throw SceneError(d.camera.loc, "Camera \"" + d.camera.type +
+                                               "\" is not supported (only \"perspective\")");
+        fov = cp.get_float("fov", 90.f);
+        lens_radius = cp.get_float("lensradius", 0.f);
+        focal_distance = cp.get_float("focaldistance", 1e6f);
+        sw = cp.get_floats("screenwindow");
+        if (!sw.empty() && sw.size() != 4)
+            throw SceneError(d.camera.loc, "\"screenwindow\" needs 4 values");
+        float far = cp.get_float("frameaspectratio", 0.f);
+        if (far > 0.f && sw.empty()) {
+            if (far > 1.f)
+                sw = {-far, far, -1.f, 1.f};
+            else
+                sw = {-1.f, 1.f, -1.f / far, 1.f / far};
+        }
+        for (const char *shutter : {"shutteropen", "shutterclose"})
+            if (const Param *p = cp.find(shutter)) p->used = true;
+        cp.report_unused("Camera");
+    }
+    sc.camera = std::make_unique<PerspectiveCamera>(d.camera_from_world, s.width, s.height, fov,
+                                                    lens_radius, focal_distance,
+                                                    sw.empty() ? nullptr : sw.data());
+}
+
+/// A shape's triangles in the target space, or nothing for quadrics/unsupported shapes.
+std::optional<TriangleMesh> triangles_of(const ShapeDesc &sd, const Transform &xf) {
+    const ParamSet &ps = sd.params;
+    TriangleMesh m;
+    std::vector<Vec3f> p, n;
+    std::vector<Vec2f> uv;
+    std::vector<int> idx;
+    if (sd.type == "trianglemesh") {
+        p = ps.get_point3s("P");
+        idx = ps.get_ints("indices");
+        n = ps.get_normals("N");
+        uv = ps.get_point2s("uv");
+        if (uv.empty()) uv = ps.get_point2s("st");
+        if (idx.empty()) {
+            if (p.size() == 3)
+                idx = {0, 1, 2};
+            else
+                throw SceneError(sd.loc, "trianglemesh: \"indices\" missing");
+        }
+        for (const char *ig : {"S", "faceIndices"})
+            if (const Param *x = ps.find(ig)) x->used = true;
+    } else if (sd.type == "plymesh") {
+        std::string file = resolve(sd.base_dir, ps.get_string("filename", ""));
+        MeshData md = load_ply(file);
+        p = std::move(md.p);
+        n = std::move(md.n);
+        uv = std::move(md.uv);
+        idx.assign(md.indices.begin(), md.indices.end());
+        if (ps.find("displacement")) {
+            warn(sd.loc, "plymesh \"displacement\" is not supported; ignored");
+            for (const char *ig : {"displacement", "edgelength"})
+                if (const Param *x = ps.find(ig)) x->used = true;
+        }
+    } else if (sd.type == "bilinearmesh") {
+        p = ps.get_point3s("P");
+        std::vector<int> quads = ps.get_ints("indices");
+        n = ps.get_normals("N");
+        uv = ps.get_point2s("uv");
+        if (quads.empty() && p.size() == 4) quads = {0, 1, 2, 3};
+        if (quads.size() % 4 != 0)
+            throw SceneError(sd.loc, "bilinearmesh: \"indices\" must hold 4 per patch");
+        bool warned = false;
+        for (size_t q = 0; q + 3 < quads.size(); q += 4) {
+            int v00 = quads[q], v10 = quads[q + 1], v01 = quads[q + 2], v11 = quads[q + 3];
+            for (int v : {v00, v10, v01, v11})
+                if (v < 0 || size_t(v) >= p.size())
+                    throw SceneError(sd.loc, "bilinearmesh: index out of range");
+            // Non-planar patches are approximated by two triangles.
+            Vec3f nrm = cross(p[size_t(v10)] - p[size_t(v00)], p[size_t(v01)] - p[size_t(v00)]);
+            float off = dot(normalize(nrm), p[size_t(v11)] - p[size_t(v00)]);
+            float scale = length(p[size_t(v11)] - p[size_t(v00)]);
+            if (!warned && std::abs(off) > 1e-4f * scale) {
+                warn(sd.loc, "non-planar bilinear patches are approximated by two triangles");
+                warned = true;
+            }
+            // Patch (v00, v10, v01, v11): triangles (v00, v10, v11) and (v00, v11, v01) keep the
+            // orientation of dpdu x dpdv.
+            idx.insert(idx.end(), {v00, v10, v11, v00, v11, v01});
+        }
+        if (uv.empty() && p.size() == 4 && quads.size() == 4) {
+            uv.assign(4, Vec2f());
+            uv[size_t(quads[0])] = {0, 0};
+            uv[size_t(quads[1])] = {1, 0};
+            uv[size_t(quads[2])] = {0, 1};
+            uv[size_t(quads[3])] = {1, 1};
+        }
+    } else {
+        return std::nullopt;
+    }
+    if (idx.size() % 3 != 0)
+        throw SceneError(sd.loc, sd.type + ": the number of indices is not a multiple of 3");
+    if (p.empty()) throw SceneError(sd.loc, sd.type + ": no vertex positions \"P\"");
+    for (int i : idx)
+        if (i < 0 || size_t(i) >= p.size())
+            throw SceneError(sd.loc, sd.type + ": vertex index " + std::to_string(i) +
+                                         " out of range (" + std::to_string(p.size()) +
+                                         " vertices)");
+    if (!n.empty() && n.size() != p.size()) {
+        warn(sd.loc, "\"N\" has a different count than \"P\"; normals ignored");
+        n.clear();
+    }
+    if (!uv.empty() && uv.size() != p.size()) {
+        warn(sd.loc, "\"uv\" has a different count than \"P\"; uvs ignored");
+        uv.clear();
+    }
+    m.p.reserve(p.size() + 1);
+    for (Vec3f v : p) m.p.push_back(xf.point(v));
+    for (Vec3f v : n) {
+        Vec3f w = xf.normal(v);
+        float l = length(w);
+        m.n.push_back(l > 0 ? w / l : w);
+    }
+    m.uv = std::move(uv);
+    m.indices.assign(idx.begin(), idx.end());
+    m.flip_normal = sd.reverse_orientation != xf.swaps_handedness();
+    return m;
+}
+
+void warn_shape_params(const ShapeDesc &sd) {
+    const ParamSet &ps = sd.params;
+    if (const Param *a = ps.find("alpha")) {
+        a->used = true;
+        bool opaque = a->type == "float" && !a->numbers.empty() && a->numbers[0] >= 1.0;
+        if (!opaque)
+            warn(a->loc, "\"alpha\" cut-outs are not supported; the shape is rendered opaque");
+    }
+    if (const Param *e = ps.find("emissionfilename")) {
+        e->used = true;
+        warn(e->loc, "\"emissionfilename\" is not supported; ignored");
+    }
+}
+
+struct Builder {
+    const SceneDesc &d;
+    Scene &sc;
+    MaterialSet &mats;
+
+    int material_of(const ShapeDesc &sd) {
+        if (sd.material.empty()) return mats.default_index();
+        int i = mats.index(sd.material);
+        if (i < 0) throw SceneError(sd.loc, "unknown material \"" + sd.material + "\"");
+        return i;
+    }
+
+    void add_shape(int group, const ShapeDesc &sd, const Transform &xf, bool allow_lights) {
+        warn_shape_params(sd);
+        int material = material_of(sd);
+        bool emissive = sd.area_light.has_value() && allow_lights;
+        if (emissive && sd.area_light_type != "diffuse" && !sd.area_light_type.empty())
+            throw SceneError(sd.area_light_loc,
+                             "AreaLightSource \"" + sd.area_light_type + "\" is not supported");
+        if (std::optional<TriangleMesh> m = triangles_of(sd, xf)) {
+            m->material = material;
+            if (emissive) {
+                m->lights.assign(m->triangle_count(), nullptr);
+                for (size_t t = 0; t < m->triangle_count(); ++t) {
+                    float area = m->area(t);
+                    AreaEmission em = make_area_emission(*sd.area_light, sd.area_light_loc, area);
+                    if (em.L.is_black() || !(area > 0)) continue;
+                    uint32_t i0 = m->indices[3 * t], i1 = m->indices[3 * t + 1],
+                             i2 = m->indices[3 * t + 2];
+                    auto light = std::make_unique<TriangleLight>(
+                        m->p[i0], m->p[i1], m->p[i2], m->oriented_normal(t), em.L, em.twosided);
+                    m->lights[t] = light.get();
+                    sc.lights.push_back(std::move(light));
+                    sc.features.emissive_shapes = true;
+                }
+                sd.area_light->report_unused("AreaLightSource");
+            }
+            sd.params.report_unused("Shape \"" + sd.type + "\"");
+            sc.geometry->add_mesh(group, std::move(*m));
+            return;
+        }
+        if (sd.type == "sphere" || sd.type == "disk") {
+            const ParamSet &ps = sd.params;
+            Quadric q;
+            q.render_from_object = xf;
+            q.material = material;
+            q.flip_normal = sd.reverse_orientation != xf.swaps_handedness();
+            if (sd.type == "sphere") {
+                q.kind = Quadric::Kind::Sphere;
+                q.radius = ps.get_float("radius", 1.f);
+                q.zmin = clamp(ps.get_float("zmin", -q.radius), -q.radius, q.radius);
+                q.zmax = clamp(ps.get_float("zmax", q.radius), -q.radius, q.radius);
+                if (q.zmin > q.zmax) std::swap(q.zmin, q.zmax);
+            } else {
+                q.kind = Quadric::Kind::Disk;
+                q.height = ps.get_float("height", 0.f);
+                q.radius = ps.get_float("radius", 1.f);
+                q.inner_radius = ps.get_float("innerradius", 0.f);
+            }
+            q.phi_max = radians(clamp(ps.get_float("phimax", 360.f), 0.f, 360.f));
+            if (!(q.radius > 0)) throw SceneError(sd.loc, sd.type + ": radius must be positive");
+            if (emissive) add_quadric_light(sd, q);
+            ps.report_unused("Shape \"" + sd.type + "\"");
+            sc.features.quadrics = true;
+            sc.geometry->add_quadric(group, q);
+            return;
+        }
+        warn(sd.loc, "Shape \"" + sd.type + "\" is not supported; it is not rendered");
+        for (const Param &p : sd.params.params) p.used = true;
+    }
+
+    void add_quadric_light(const ShapeDesc &sd, Quadric &q) {
+        const Transform &xf = q.render_from_object;
+        // Only similarity transforms keep spheres/disks round: check the scale factors.
+        Vec3f ex = xf.vector({1, 0, 0}), ey = xf.vector({0, 1, 0}), ez = xf.vector({0, 0, 1});
+        float sx = length(ex), sy = length(ey), sz = length(ez);
+        bool uniform = std::abs(sx - sy) < 1e-4f * sx && std::abs(sx - sz) < 1e-4f * sx;
+        bool full = q.phi_max >= 2 * kPi - 1e-6f &&
+                    (q.kind == Quadric::Kind::Disk
+                         ? q.inner_radius == 0.f
+                         : (q.zmin <= -q.radius && q.zmax >= q.radius));
+        if (!uniform || !full) {
+            warn(sd.area_light_loc,
+                 "area lights on partial or non-uniformly scaled " + sd.type +
+                     "s are not supported; the shape does not emit");
+            return;
+        }
+        float r = q.radius * sx;
+        float area = q.kind == Quadric::Kind::Sphere ? 4 * kPi * r * r : kPi * r * r;
+        AreaEmission em = make_area_emission(*sd.area_light, sd.area_light_loc, area);
+        sd.area_light->report_unused("AreaLightSource");
+        if (em.L.is_black()) return;
+        std::unique_ptr<Light> light;
+        if (q.kind == Quadric::Kind::Sphere) {
+            light = std::make_unique<SphereLight>(xf.point({0, 0, 0}), r, em.L, q.flip_normal,
+                                                  em.twosided);
+        } else {
+            Vec3f n = normalize(xf.normal({0, 0, 1}));
+            if (q.flip_normal) n = -n;
+            light = std::make_unique<DiskLight>(xf.point({0, 0, q.height}), n, r, em.L,
+                                                em.twosided);
+        }
+        q.light = light.get();
+        sc.lights.push_back(std::move(light));
+        sc.features.emissive_shapes = true;
+    }
+};
+
+}  // namespace
+
+std::unique_ptr<Scene> build_scene(const SceneDesc &d, const SceneOverrides &ov) {
+    auto sc = std::make_unique<Scene>();
+    apply_settings(d, ov, *sc);
+
+    sc->textures = std::make_unique<TextureSet>(d.textures);
+    sc->features.textures = !d.textures.empty();
+    sc->features.image_textures = sc->textures->uses_texture_system();
+    MaterialSet mats(d.materials, *sc->textures);
+
+    sc->geometry = std::make_unique<Geometry>();
+    Builder b{d, *sc, mats};
+    for (const ShapeDesc &sd : d.shapes)
+        b.add_shape(sc->geometry->top_level(), sd, sd.render_from_object, true);
+
+    // Object instancing: one Embree prototype scene per used object.
+    std::map<std::string, int> protos;
+    for (const InstanceDesc &inst : d.instances) {
+        auto it = d.objects.find(inst.object);
+        if (it == d.objects.end())
+            throw SceneError(inst.loc, "unknown object \"" + inst.object + "\"");
+        auto pit = protos.find(inst.object);
+        if (pit == protos.end()) {
+            int g = sc->geometry->new_prototype(inst.object);
+            for (const ShapeDesc &sd : it->second.shapes)
+                b.add_shape(g, sd, sd.render_from_object, false);
+            pit = protos.emplace(inst.object, g).first;
+        }
+        sc->geometry->add_instance(pit->second, inst.render_from_instance);
+        sc->features.instances = true;
+    }
+    sc->geometry->commit();
+
+    for (const LightDesc &ld : d.lights) {
+        std::unique_ptr<Light> l = make_light(ld);
+        if (!l) continue;
+        LightType t = l->type();
+        if (t == LightType::Infinite) {
+            sc->features.environment = true;
+            if (dynamic_cast<const ImageInfiniteLight *>(l.get()))
+                sc->features.environment_map = true;
+            sc->infinite_lights.push_back(l.get());
+        } else {
+            sc->features.delta_lights = true;
+        }
+        sc->lights.push_back(std::move(l));
+    }
+    Vec3f bmin = sc->geometry->bounds_min(), bmax = sc->geometry->bounds_max();
+    Vec3f center = (bmin + bmax) * 0.5f;
+    float radius = std::max(length(bmax - center), 1e-3f);
+    for (auto &l : sc->lights) l->preprocess(center, radius);
+    if (!sc->lights.empty()) {
+        std::vector<const Light *> ptrs;
+        for (auto &l : sc->lights) ptrs.push_back(l.get());
+        sc->light_sampler = std::make_unique<PowerLightSampler>(ptrs);
+    } else {
+        warn(FileLoc{d.main_file, 0}, "the scene has no lights: the image will be black");
+    }
+
+    sc->materials = mats.release();
+    for (const auto &m : sc->materials) {
+        uint8_t f = m->possible_flags();
+        if (f & kBxdfSpecular) sc->features.specular = true;
+        if (f & kBxdfTransmission) sc->features.transmission = true;
+    }
+    return sc;
+}
+
+std::unique_ptr<Scene> load_scene(const std::string &path, const SceneOverrides &ov) {
+    std::error_code ec;
+    if (!fs::is_regular_file(path, ec))
+        throw SceneError(path + ":0: cannot open the scene file");
+    std::string ext = fs::path(path).extension().string();
+    for (char &c : ext) c = char(std::tolower(static_cast<unsigned char>(c)));
+    SceneDesc desc;
+    if (ext == ".obj") {
+#ifdef TESSERA_HAVE_OBJ
+        desc = load_obj_scene(path);
+#endif
+    } else if (ext == ".ply") {
+        desc = load_ply_scene(path);
+    } else {
+        desc = parse_pbrt_file(path);
+    }
+    return build_scene(desc, ov);
+}
+
+}  // namespace tessera

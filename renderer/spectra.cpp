@@ -1,0 +1,232 @@
+// Spectrum -> linear sRGB conversions for pbrt-v4 scene parameters (see spectra.h).
+#include "renderer/spectra.h"
+
+#include <array>
+#include <cmath>
+#include <vector>
+
+namespace tessera {
+
+namespace {
+
+/// Piecewise Gaussian of Wyman et al. 2013, eq. 2: different widths left and right of `mu`.
+double lobe(double x, double mu, double sigma_left, double sigma_right) {
+    double t = (x - mu) / (x < mu ? sigma_left : sigma_right);
+    return std::exp(-0.5 * t * t);
+}
+
+/// CIE standard illuminant D65, relative spectral power at 380, 390, ..., 780 nm (CIE 15:2004,
+/// table T.1, 10 nm steps).
+constexpr std::array<double, 41> kD65 = {
+    49.9755, 54.6482, 82.7549, 91.4860, 93.4318, 86.6823, 104.865, 117.008, 117.812,
+    114.861, 115.923, 108.811, 109.354, 107.802, 104.790, 107.689, 104.405, 104.046,
+    100.000, 96.3342, 95.7880, 88.6856, 90.0062, 89.5991, 87.6987, 83.2886, 83.6992,
+    80.0268, 80.2146, 82.2778, 78.2842, 69.7213, 71.6091, 74.3490, 61.6040, 69.8856,
+    75.0870, 63.5927, 46.4182, 66.8054, 63.3828};
+
+/// D65 at any wavelength in [380, 780] nm by linear interpolation, 0 outside.
+double d65(double lambda) {
+    if (lambda < 380 || lambda > 780) return 0;
+    double x = (lambda - 380) / 10;
+    int i = std::min(int(x), 39);
+    double t = x - i;
+    return (1 - t) * kD65[i] + t * kD65[i + 1];
+}
+
+/// Piecewise-linear evaluation, 0 outside [lambda.front(), lambda.back()].
+double eval_pwl(std::span<const float> lambda, std::span<const float> values, double x) {
+    if (lambda.empty() || x < lambda.front() || x > lambda.back()) return 0;
+    if (lambda.size() == 1) return values[0];
+    size_t hi = 1;
+    while (hi + 1 < lambda.size() && lambda[hi] < x) ++hi;
+    double l0 = lambda[hi - 1], l1 = lambda[hi];
+    double t = l1 > l0 ? (x - l0) / (l1 - l0) : 0;
+    return (1 - t) * values[hi - 1] + t * values[hi];
+}
+
+// Integration over the visible range with 1 nm steps (as pbrt-v4's SpectrumToXYZ).
+constexpr int kLambdaMin = 360, kLambdaMax = 830;
+
+template <typename F>
+std::array<double, 3> integrate_xyz(F spectrum) {
+    std::array<double, 3> xyz = {0, 0, 0};
+    for (int l = kLambdaMin; l <= kLambdaMax; ++l) {
+        Vec3f c = cie_xyz(float(l));
+        double s = spectrum(double(l));
+        xyz[0] += c.x * s;
+        xyz[1] += c.y * s;
+        xyz[2] += c.z * s;
+    }
+    return xyz;
+}
+
+/// XYZ scaled to luminance 1 and converted to sRGB; black if Y <= 0. Colours outside the sRGB
+/// gamut (e.g. blackbodies below ~1900 K) have negative components, clamped to 0: the renderer
+/// must never see negative radiance.
+Rgb normalised_rgb(std::array<double, 3> xyz) {
+    if (!(xyz[1] > 0)) return Rgb(0.f);
+    return clamp_zero(
+        xyz_to_linear_srgb(Vec3f(float(xyz[0] / xyz[1]), 1.f, float(xyz[2] / xyz[1]))));
+}
+
+/// RGB optical constants of pbrt-v4's named metals.
+struct MetalEntry {
+    const char *name;
+    Rgb eta, k;
+};
+
+// Band averages (red 600-700 nm, green 500-600 nm, blue 400-500 nm; see band_average_rgb) of
+// the measured spectral eta/k tables that pbrt-v4 ships in src/pbrt/util/spectrum.cpp (the
+// metal data of pbrt-v3's scenes, from refractiveindex.info / Palik's handbook), computed
+// offline by averaging the piecewise-linear curves with 1000 midpoint samples per band.
+// CuZn (brass) is not in the pbrt-v4 version we could consult; its values are Mitsuba 0.5's
+// RGB table for "CuZn", an approximation of the same kind.
+constexpr MetalEntry kMetals[] = {
+    {"Ag", {0.1363f, 0.1251f, 0.1501f}, {4.1272f, 3.3368f, 2.4620f}},
+    {"Al", {1.4869f, 0.9672f, 0.6217f}, {7.7954f, 6.6799f, 5.4706f}},
+    {"Au", {0.1761f, 0.4118f, 1.4180f}, {3.3020f, 2.5955f, 1.8807f}},
+    {"Cu", {0.2427f, 0.8757f, 1.1624f}, {3.6046f, 2.6447f, 2.3807f}},
+    {"CuZn", {0.444f, 0.527f, 1.094f}, {3.695f, 2.765f, 1.829f}},
+    {"MgO", {1.7338f, 1.7407f, 1.7529f}, {0.f, 0.f, 0.f}},
+    {"TiO2", {2.8610f, 2.9568f, 3.1735f}, {0.f, 0.f, 0.0022f}},
+};
+
+struct GlassEntry {
+    const char *name;
+    float eta;
+};
+
+// Index of refraction at 550 nm, linearly interpolated in the refractiveindex.info tables
+// (Schott catalogue Sellmeier fits) that pbrt-v4 uses for its named glasses. "glass-F5",
+// "glass-F10", "glass-F11" are pbrt-v4's names for Schott SF5, SF10, SF11.
+constexpr GlassEntry kGlasses[] = {
+    {"glass-BK7", 1.5185f},  {"glass-BAF10", 1.6731f}, {"glass-FK51A", 1.4878f},
+    {"glass-LASF9", 1.8558f}, {"glass-F5", 1.6771f},    {"glass-SF5", 1.6771f},
+    {"glass-F10", 1.7336f},  {"glass-SF10", 1.7336f},  {"glass-F11", 1.7911f},
+    {"glass-SF11", 1.7911f},
+};
+
+struct IlluminantEntry {
+    const char *name;
+    float cct_kelvin;  ///< 0: exactly the sRGB white
+    bool exact;        ///< true: a blackbody is the definition (illuminant A), or D65 itself
+};
+
+// Standard illuminants. D65 is the sRGB white point, so it maps to (1, 1, 1) exactly; A is by
+// definition a 2856 K Planckian radiator. The others are approximated by a blackbody at their
+// correlated colour temperature (CIE 15:2004), which misses the daylight locus' green offset and
+// the line spectra of the F series: reported as an approximation.
+constexpr IlluminantEntry kIlluminants[] = {
+    {"stdillum-D65", 0, true},     {"stdillum-A", 2856, true},    {"stdillum-D50", 5003, false},
+    {"illum-acesD60", 6000, false}, {"stdillum-F1", 6430, false}, {"stdillum-F2", 4230, false},
+    {"stdillum-F3", 3450, false},  {"stdillum-F4", 2940, false},  {"stdillum-F5", 6350, false},
+    {"stdillum-F6", 4150, false},  {"stdillum-F7", 6500, false},  {"stdillum-F8", 5000, false},
+    {"stdillum-F9", 4150, false},  {"stdillum-F10", 5000, false}, {"stdillum-F11", 4000, false},
+    {"stdillum-F12", 3000, false},
+};
+
+}  // namespace
+
+Vec3f cie_xyz(float lambda_nm) {
+    // Wyman, Sloan, Shirley 2013, "multi-lobe" fit (eq. 2), error about 1% of the peak.
+    double l = lambda_nm;
+    double x = 1.056 * lobe(l, 599.8, 37.9, 31.0) + 0.362 * lobe(l, 442.0, 16.0, 26.7) -
+               0.065 * lobe(l, 501.1, 20.4, 26.2);
+    double y = 0.821 * lobe(l, 568.8, 46.9, 40.5) + 0.286 * lobe(l, 530.9, 16.3, 31.1);
+    double z = 1.217 * lobe(l, 437.0, 11.8, 36.0) + 0.681 * lobe(l, 459.0, 26.0, 13.8);
+    return {float(x), float(y), float(z)};
+}
+
+Rgb xyz_to_linear_srgb(Vec3f c) {
+    return {3.2404542f * c.x - 1.5371385f * c.y - 0.4985314f * c.z,
+            -0.9692660f * c.x + 1.8760108f * c.y + 0.0415560f * c.z,
+            0.0556434f * c.x - 0.2040259f * c.y + 1.0572252f * c.z};
+}
+
+double planck(double lambda_nm, double kelvin) {
+    if (kelvin <= 0) return 0;
+    constexpr double c = 299792458.0, h = 6.62606957e-34, kb = 1.3806488e-23;
+    double l = lambda_nm * 1e-9;
+    return (2 * h * c * c) / (std::pow(l, 5) * (std::exp((h * c) / (l * kb * kelvin)) - 1));
+}
+
+Rgb blackbody_rgb(float kelvin) {
+    // pbrt-v4's BlackbodySpectrum divides by its peak (Wien's law), and every light then divides
+    // its scale by the spectrum's photometric value, so only the chromaticity survives: the
+    // emitted colour has luminance 1.
+    return normalised_rgb(integrate_xyz([&](double l) { return planck(l, kelvin); }));
+}
+
+Rgb sampled_spectrum_rgb(std::span<const float> lambda_nm, std::span<const float> values,
+                         bool illuminant) {
+    auto s = [&](double l) { return eval_pwl(lambda_nm, values, l); };
+    if (illuminant) return normalised_rgb(integrate_xyz(s));
+    // Reflectance: reflected light of D65 relative to D65's own luminance, so that the
+    // constant spectrum 1 maps to sRGB white (1, 1, 1) up to the accuracy of the CMF fit.
+    std::array<double, 3> xyz = integrate_xyz([&](double l) { return s(l) * d65(l); });
+    std::array<double, 3> white = integrate_xyz(d65);
+    Rgb rgb = xyz_to_linear_srgb(Vec3f(float(xyz[0] / white[1]), float(xyz[1] / white[1]),
+                                       float(xyz[2] / white[1])));
+    // Remove the small residual tint of the fitted matching functions: divide by the RGB of the
+    // perfect white reflector.
+    Rgb w = xyz_to_linear_srgb(Vec3f(float(white[0] / white[1]), 1.f,
+                                     float(white[2] / white[1])));
+    return clamp_zero(rgb / w);  // out-of-gamut reflectances: no negative components
+}
+
+Rgb band_average_rgb(std::span<const float> lambda_nm, std::span<const float> values) {
+    auto band = [&](double a, double b) {
+        constexpr int n = 200;
+        double sum = 0;
+        for (int i = 0; i < n; ++i) sum += eval_pwl(lambda_nm, values, a + (b - a) * (i + 0.5) / n);
+        return float(sum / n);
+    };
+    return {band(600, 700), band(500, 600), band(400, 500)};
+}
+
+bool named_metal(std::string_view metal, Rgb *eta, Rgb *k) {
+    for (const MetalEntry &m : kMetals)
+        if (metal == m.name) {
+            if (eta) *eta = m.eta;
+            if (k) *k = m.k;
+            return true;
+        }
+    return false;
+}
+
+std::optional<Rgb> named_spectrum_rgb(std::string_view name, bool illuminant) {
+    if (name.starts_with("metal-")) {
+        std::string_view rest = name.substr(6);
+        bool is_eta = rest.ends_with("-eta"), is_k = rest.ends_with("-k");
+        if (!is_eta && !is_k) return std::nullopt;
+        std::string_view metal = rest.substr(0, rest.size() - (is_eta ? 4 : 2));
+        Rgb eta, k;
+        if (!named_metal(metal, &eta, &k)) return std::nullopt;
+        return is_eta ? eta : k;
+    }
+    for (const GlassEntry &g : kGlasses)
+        if (name == g.name) return Rgb(g.eta);
+    for (const IlluminantEntry &e : kIlluminants)
+        if (name == e.name) {
+            Rgb c = e.cct_kelvin == 0 ? Rgb(1.f) : blackbody_rgb(e.cct_kelvin);
+            // As a reflectance-like quantity, scale to a maximum of 1 instead of luminance 1.
+            if (!illuminant && c.max_value() > 0) c = c / c.max_value();
+            return c;
+        }
+    // Camera sensor curves (canon_eos_*, nikon_*, sony_*, hasselblad_*) only make sense in a
+    // spectral film: unsupported.
+    return std::nullopt;
+}
+
+std::string named_spectrum_note(std::string_view name) {
+    if (name.starts_with("glass-"))
+        return "dispersion is not simulated; using the index of refraction at 550 nm";
+    if (name == "metal-CuZn-eta" || name == "metal-CuZn-k")
+        return "approximated by a tabulated RGB value (no spectral data)";
+    for (const IlluminantEntry &e : kIlluminants)
+        if (name == e.name && !e.exact)
+            return "approximated by a blackbody at the illuminant's colour temperature";
+    return {};
+}
+
+}  // namespace tessera

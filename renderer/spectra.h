@@ -1,0 +1,71 @@
+// Conversion of pbrt-v4 spectral parameters to linear sRGB (Rec.709 primaries, D65 white).
+//
+// Tessera renders in RGB. pbrt-v4 renders spectrally, so every spectrum a scene gives (named
+// spectra, blackbody temperatures, (lambda, value) tables) is reduced to one RGB triple here:
+//  - Illuminants (light "L", "I"): pbrt-v4 divides each light's scale by the spectrum's
+//    photometric value (lights.cpp, `scale /= SpectrumToPhotometric(L)`), so a spectral or
+//    blackbody emitter has luminance Y = 1 before "scale"/"power". We therefore return the
+//    spectrum's colour in sRGB normalised to luminance 1. (An "rgb L" keeps its values: pbrt-v4
+//    only normalises the colour space's illuminant of an RGBIlluminantSpectrum.)
+//  - Reflectances: the colour of the spectrum lit by D65 (the sRGB white), divided by the
+//    luminance of D65, so that a constant reflectance r gives RGB (r, r, r).
+//  - Unbounded values such as conductor eta and k: the plain average of the spectrum over three
+//    bands, blue 400-500 nm, green 500-600 nm, red 600-700 nm. Colour-matching projections of
+//    eta/k give meaningless (even negative) values, band averages keep Fresnel plausible.
+// CIE 1931 2-degree matching functions use the multi-lobe Gaussian fit of Wyman, Sloan and
+// Shirley, "Simple Analytic Approximations to the CIE XYZ Color Matching Functions", JCGT 2(2),
+// 2013 (eq. 2). XYZ -> linear sRGB uses the IEC 61966-2-1 matrix.
+// All functions are pure and thread-safe.
+#pragma once
+
+#include <optional>
+#include <span>
+#include <string>
+#include <string_view>
+
+#include "sampling/vecmath.h"
+
+namespace tessera {
+
+/// CIE 1931 XYZ of a monochromatic unit stimulus at `lambda_nm` (Wyman et al. 2013 fit).
+Vec3f cie_xyz(float lambda_nm);
+
+/// XYZ -> linear sRGB (Rec.709 primaries, D65 white), IEC 61966-2-1.
+Rgb xyz_to_linear_srgb(Vec3f xyz);
+
+/// Planck's law: spectral radiance of a blackbody at `kelvin` for `lambda_nm`, W/(m^2 sr m).
+double planck(double lambda_nm, double kelvin);
+
+/// Colour of a blackbody emitter at `kelvin` (> 0) in linear sRGB, normalised to luminance
+/// Y = 1 as pbrt-v4's lights do (BlackbodySpectrum is peak-normalised, then the light's scale is
+/// divided by its photometric value). 6500 K is close to (1, 1, 1); negative (out-of-gamut)
+/// components, below about 1900 K, are clamped to 0.
+Rgb blackbody_rgb(float kelvin);
+
+/// RGB of a piecewise-linear spectrum given by increasing wavelengths `lambda_nm` and `values`
+/// (outside the given range the spectrum is 0, as pbrt-v4's PiecewiseLinearSpectrum).
+/// `illuminant`: emission, normalised to luminance 1 (see the file comment); otherwise a
+/// reflectance lit by D65 (a constant spectrum c gives (c, c, c)). Out-of-gamut colours are
+/// clamped to non-negative components.
+Rgb sampled_spectrum_rgb(std::span<const float> lambda_nm, std::span<const float> values,
+                         bool illuminant);
+
+/// Average of a piecewise-linear spectrum over the blue (400-500 nm), green (500-600 nm) and red
+/// (600-700 nm) bands, returned as (r, g, b). Used for eta and k.
+Rgb band_average_rgb(std::span<const float> lambda_nm, std::span<const float> values);
+
+/// Conductor optical constants of pbrt-v4's named metals: `metal` is the element part of the
+/// name ("Ag", "Al", "Au", "Cu", "CuZn", "MgO", "TiO2"). Returns false if unknown.
+bool named_metal(std::string_view metal, Rgb *eta, Rgb *k);
+
+/// RGB of a pbrt-v4 named spectrum ("metal-Au-eta", "glass-BK7", "stdillum-D65", ...), or
+/// std::nullopt when the name is unknown or unsupported (camera sensor curves). Glasses give
+/// their index of refraction at 550 nm as a grey triple. Illuminants are normalised to luminance
+/// 1 when `illuminant` is true (pbrt-v4 lights), otherwise have a maximum component of 1.
+std::optional<Rgb> named_spectrum_rgb(std::string_view name, bool illuminant = true);
+
+/// A one-line note on how `name` is approximated ("" when it is exact enough to say nothing),
+/// for the caller's warning: e.g. glasses lose their dispersion.
+std::string named_spectrum_note(std::string_view name);
+
+}  // namespace tessera

@@ -1,0 +1,124 @@
+// Per-pixel accumulation for the progressive renderer (DESIGN.md, "The data that flows", item 4).
+//
+// Each pixel keeps, in double precision, the sum of the radiance of its accepted samples and the
+// "half buffer": the sum of the accepted samples with an odd sample index (Dammertz et al. 2010,
+// "A Hierarchical Automatic Stopping Condition for Monte Carlo Global Illumination", section 3:
+// the pixel error compares the mean of all samples with the mean of the half buffer). Doubles
+// keep the mean of 10^6 samples to about 1e-10 relative error (floats would lose ~1e-2).
+// AOVs (albedo, normal, depth) are running means in float over the samples that hit something
+// (finite depth); a running mean m += (x - m) / n stays within ~sqrt(n) ulps, enough for AOVs.
+//
+// Non-finite radiance: a sample whose radiance has a NaN or Inf component is dropped before it
+// reaches any sum and counted in nan_count(). It still counts as *taken* (sample_count(), the
+// spp layer, and the index the next pass starts at), but not in the mean. pbrt-v4 zeroes such
+// samples instead, which biases the pixel towards black; dropping keeps the mean of the finite
+// samples.
+#pragma once
+
+#include <array>
+#include <atomic>
+#include <cstddef>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "sampling/sample_source.h"
+#include "sampling/vecmath.h"
+
+namespace tessera::sampling {
+
+/// Everything the film knows about one pixel, in the precision it keeps it. A policy's view.
+struct PixelStats {
+    std::array<double, 3> mean{};       ///< mean radiance of the accepted samples (0 if none)
+    std::array<double, 3> half_mean{};  ///< mean radiance of the accepted odd-index samples
+    uint32_t taken = 0;                 ///< samples taken, dropped ones included
+    uint32_t accepted = 0;              ///< samples with finite radiance (in `mean`)
+    uint32_t half_accepted = 0;         ///< accepted samples with an odd index (in `half_mean`)
+    uint32_t hits = 0;                  ///< accepted samples with a finite depth (AOV means)
+};
+
+/// Per-pixel sums of a progressive render. add_sample is safe to call concurrently for
+/// DIFFERENT pixels without locks (each pixel is written by one thread at a time, its tile's
+/// owner); reads of a pixel must not overlap writes of the same pixel. nan_count() is atomic.
+class Film {
+  public:
+    /// A film of width x height pixels, all sums zero.
+    Film(uint32_t width, uint32_t height);
+
+    Film(const Film &) = delete;
+    Film &operator=(const Film &) = delete;
+
+    uint32_t width() const { return width_; }
+    uint32_t height() const { return height_; }
+
+    /// Accumulates sample `sample_index` of pixel (px, py). Odd indices also go to the half
+    /// buffer. Non-finite radiance drops the sample (see the file comment). Thread-safe for
+    /// different pixels; (px, py) must be inside the film.
+    void add_sample(uint32_t px, uint32_t py, uint32_t sample_index, const Sample &s);
+
+    /// Number of samples dropped for NaN or Inf radiance since construction or clear().
+    uint64_t nan_count() const { return nan_count_.load(std::memory_order_relaxed); }
+
+    /// Samples taken by pixel (px, py), dropped ones included: the index its next sample gets
+    /// when passes take indices in order.
+    uint32_t sample_count(uint32_t px, uint32_t py) const { return at(px, py).taken; }
+
+    /// Full statistics of one pixel (double precision).
+    PixelStats pixel_stats(uint32_t px, uint32_t py) const;
+
+    /// Mean radiance of pixel (px, py) over its accepted samples; black when it has none.
+    Rgb mean(uint32_t px, uint32_t py) const;
+
+    /// Sum over all pixels of the samples taken (dropped ones included). Not thread-safe
+    /// against concurrent add_sample.
+    uint64_t total_samples() const;
+
+    /// Resets every sum and counter to zero. Not thread-safe.
+    void clear();
+
+    // Resolves: row-major from the top-left pixel, interleaved channels. Not thread-safe
+    // against concurrent add_sample.
+    /// Mean radiance, 3 floats per pixel (linear Rec.709 RGB).
+    std::vector<float> beauty_rgb() const;
+    /// Mean of the half buffer (odd-index samples), 3 floats per pixel.
+    std::vector<float> half_rgb() const;
+    /// Mean first-hit albedo over the samples that hit, 3 floats per pixel (0 if none hit).
+    std::vector<float> albedo_rgb() const;
+    /// Mean first-hit shading normal over the samples that hit (not renormalised), 3 floats
+    /// per pixel, world space (0 if none hit).
+    std::vector<float> normal_xyz() const;
+    /// Mean first-hit distance over the samples that hit, in scene units; +inf if none hit.
+    std::vector<float> depth() const;
+    /// Samples taken per pixel (dropped ones included), 1 float per pixel.
+    std::vector<float> spp() const;
+
+    /// Film memory per pixel in bytes.
+    static constexpr size_t bytes_per_pixel() { return sizeof(PixelData); }
+
+    /// One readable line: size, memory, samples, dropped samples.
+    std::string describe() const;
+
+  private:
+    struct PixelData {
+        double sum[3] = {0, 0, 0};       // radiance sum of accepted samples
+        double half_sum[3] = {0, 0, 0};  // radiance sum of accepted odd-index samples
+        float albedo[3] = {0, 0, 0};     // running means over hits
+        float normal[3] = {0, 0, 0};
+        float depth = 0;
+        uint32_t taken = 0;
+        uint32_t accepted = 0;
+        uint32_t half_accepted = 0;
+        uint32_t hits = 0;
+    };
+
+    const PixelData &at(uint32_t px, uint32_t py) const {
+        return pixels_[size_t(py) * width_ + px];
+    }
+    PixelData &at(uint32_t px, uint32_t py) { return pixels_[size_t(py) * width_ + px]; }
+
+    uint32_t width_ = 0, height_ = 0;
+    std::vector<PixelData> pixels_;
+    std::atomic<uint64_t> nan_count_{0};
+};
+
+}  // namespace tessera::sampling

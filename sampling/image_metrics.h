@@ -1,0 +1,77 @@
+// Error metrics between float RGB images, for convergence plots, regression tests and
+// `tessera diff`.
+//
+// Definitions, per channel c over N pixels (total = mean over the three channels):
+//   MSE_c    = (1/N) sum (v - ref)^2
+//   RMSE_c   = sqrt(MSE_c)
+//   relMSE_c = (1/N) sum (v - ref)^2 / (ref^2 + 0.01)   (pbrt-v4 imgtool's convention; the
+//              0.01 keeps dark pixels from dominating)
+//   PSNR_c   = 10 log10(peak^2 / MSE_c) in dB (+inf when MSE_c is 0)
+// Sums run in double precision. Non-finite pixel values are not special-cased: they propagate.
+#pragma once
+
+#include <array>
+#include <cstddef>
+#include <cstdint>
+#include <utility>
+#include <vector>
+
+namespace tessera::sampling {
+
+/// A float RGB image: row-major from the top-left pixel, 3 interleaved floats per pixel
+/// (linear unless stated otherwise). `data.size()` must be 3 * width * height.
+struct RgbImage {
+    uint32_t width = 0, height = 0;
+    std::vector<float> data;
+
+    RgbImage() = default;
+    /// A width x height image filled with `value`.
+    RgbImage(uint32_t w, uint32_t h, float value = 0.f)
+        : width(w), height(h), data(std::size_t(w) * h * 3, value) {}
+    /// Wraps existing interleaved RGB data (3 * w * h floats).
+    RgbImage(uint32_t w, uint32_t h, std::vector<float> rgb)
+        : width(w), height(h), data(std::move(rgb)) {}
+
+    std::size_t pixel_count() const { return std::size_t(width) * height; }
+    float &at(uint32_t x, uint32_t y, int c) {
+        return data[(std::size_t(y) * width + x) * 3 + c];
+    }
+    float at(uint32_t x, uint32_t y, int c) const {
+        return data[(std::size_t(y) * width + x) * 3 + c];
+    }
+};
+
+/// A metric per channel (R, G, B) and over all channels (the mean of the three for MSE-like
+/// metrics; for PSNR, computed from the total MSE).
+struct ChannelMetric {
+    std::array<double, 3> channel{};
+    double total = 0;
+};
+
+/// All metrics of a test image against a reference.
+struct ImageComparison {
+    ChannelMetric mse, rmse, rel_mse, psnr;
+    std::array<double, 3> mean_test{}, mean_ref{};
+};
+
+/// Mean squared error. Throws std::invalid_argument when the sizes differ or an image is
+/// malformed. Thread-safe (pure).
+ChannelMetric mse(const RgbImage &test, const RgbImage &ref);
+/// Root mean squared error (sqrt of each MSE entry; total = sqrt(total MSE)).
+ChannelMetric rmse(const RgbImage &test, const RgbImage &ref);
+/// Relative MSE, (v - ref)^2 / (ref^2 + 0.01) averaged (pbrt's convention).
+ChannelMetric rel_mse(const RgbImage &test, const RgbImage &ref);
+/// Peak signal-to-noise ratio in dB for the given peak value; +inf where MSE is 0.
+ChannelMetric psnr(const RgbImage &test, const RgbImage &ref, double peak = 1.0);
+/// Mean of each channel (double precision); zeros for an empty image.
+std::array<double, 3> channel_means(const RgbImage &img);
+/// Every metric at once (one pass over the pixels for the MSE-like ones).
+ImageComparison compare_images(const RgbImage &test, const RgbImage &ref, double peak = 1.0);
+
+/// Box-filter downsampling by an integer factor >= 1: output pixel (x, y) is the mean of the
+/// input block [x*f, x*f+f) x [y*f, y*f+f). The output is ceil(w/f) x ceil(h/f); partial
+/// blocks at the right and bottom edge average the pixels they have. Throws
+/// std::invalid_argument for factor 0.
+RgbImage box_downsample(const RgbImage &img, uint32_t factor);
+
+}  // namespace tessera::sampling

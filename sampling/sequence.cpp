@@ -1,0 +1,15 @@
+// Owen-scrambled Sobol sampler: the non-inline parts (the hot path lives in the header).
+#include "sampling/sequence.h"
+
+#include <sstream>
+
+namespace tessera::sampling {
+
+std::string SobolSampler::describe() const {
+    std::ostringstream os;
+    os << "SobolSampler(owen-scrambled, seed=" << seed_ << ", pixel=(" << px_ << ", " << py_
+       << "), index=" << index_ << ", dimension=" << dim_ << ")";
+    return os.str();
+}
+
+}  // namespace tessera::sampling

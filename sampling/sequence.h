@@ -1,0 +1,175 @@
+// Owen-scrambled Sobol sample values: a pure function of (seed, pixel, sample index, dimension).
+//
+// Algorithm (Burley 2020, "Practical Hash-based Owen Scrambling", JCGT 9(4)):
+//   every 2D request (dimension pair d, d+1) takes the first two Sobol dimensions (van der Corput
+//   and the second Sobol generator matrix, a (0,2)-sequence), shuffles the sample index with a
+//   hash-seeded nested-uniform (Owen) scramble, then Owen-scrambles each coordinate with its own
+//   seed. All seeds derive from hash(seed, px, py, d). Because the index shuffle maps every
+//   power-of-two prefix {0..2^m-1} onto an aligned block of 2^m consecutive Sobol points, each
+//   pixel's first 2^m samples form a (0,m,2)-net in every 2D pair, and each pair is decorrelated
+//   from every other pair and every other pixel. 1D requests use the shuffled, scrambled van der
+//   Corput sequence (stratified in every power-of-two prefix).
+//
+// The Owen scramble is the Laine-Karras style hash on bit-reversed values: each output bit depends
+// only on the input bits above it, which is exactly a nested uniform permutation of the dyadic
+// intervals (Burley 2020, section 3; Laine and Karras 2011).
+//
+// Dimension layout (DESIGN.md, "The data that flows"):
+//   dimensions 0 and 1  reserved for the film position inside the pixel (get_pixel_2d);
+//   dimensions >= 2     the integrator's, consumed in call order: get_1d takes one dimension,
+//                       get_2d takes two. start_pixel_sample() resets the counter to
+//                       kFirstFreeDimension.
+#pragma once
+
+#include <cstdint>
+#include <string>
+
+#include "sampling/vecmath.h"
+
+namespace tessera::sampling {
+
+/// Dimension pair (kPixelDimension, kPixelDimension + 1) gives the film offset inside the pixel.
+inline constexpr uint32_t kPixelDimension = 0;
+/// First dimension handed out by get_1d / get_2d after start_pixel_sample().
+inline constexpr uint32_t kFirstFreeDimension = 2;
+
+/// Reverses the 32 bits of v.
+inline constexpr uint32_t reverse_bits_32(uint32_t v) {
+    v = ((v >> 1) & 0x55555555u) | ((v & 0x55555555u) << 1);
+    v = ((v >> 2) & 0x33333333u) | ((v & 0x33333333u) << 2);
+    v = ((v >> 4) & 0x0f0f0f0fu) | ((v & 0x0f0f0f0fu) << 4);
+    v = ((v >> 8) & 0x00ff00ffu) | ((v & 0x00ff00ffu) << 8);
+    return (v >> 16) | (v << 16);
+}
+
+/// 32-bit integer finaliser with low bias ("lowbias32", C. Wellons 2018). Bijective.
+inline constexpr uint32_t mix_bits_32(uint32_t x) {
+    x ^= x >> 16;
+    x *= 0x7feb352du;
+    x ^= x >> 15;
+    x *= 0x846ca68bu;
+    x ^= x >> 16;
+    return x;
+}
+
+/// Hash of (seed, px, py, dimension), the root of every per-pixel scramble seed.
+inline constexpr uint32_t hash_pixel_dimension(uint32_t seed, uint32_t px, uint32_t py,
+                                               uint32_t dim) {
+    uint32_t h = mix_bits_32(seed ^ 0x9e3779b9u);
+    h = mix_bits_32(h ^ px);
+    h = mix_bits_32((h + 0x85ebca6bu) ^ py);
+    h = mix_bits_32(h ^ (dim * 0xc2b2ae35u + 0x27d4eb2fu));
+    return h;
+}
+
+/// Nested uniform (Owen) scramble of a 32-bit fixed-point value in [0,1): bit k of the result
+/// (counting from the most significant) depends only on bits 0..k of x and on the seed, so
+/// every dyadic interval is permuted as a whole (Burley 2020, listings 3 and 4).
+inline constexpr uint32_t owen_scramble_32(uint32_t x, uint32_t seed) {
+    x = reverse_bits_32(x);
+    // Laine-Karras style permutation: every step keeps "bit k depends on bits <= k only".
+    x ^= x * 0x3d20adeau;
+    x += seed;
+    x *= (seed >> 16) | 1u;
+    x ^= x * 0x05526c56u;
+    x ^= x * 0x53a22864u;
+    return reverse_bits_32(x);
+}
+
+/// Sobol dimension 0 (van der Corput, base 2) of `index` as 32-bit fixed point.
+inline constexpr uint32_t sobol_dim0(uint32_t index) { return reverse_bits_32(index); }
+
+/// Sobol dimension 1 of `index` as 32-bit fixed point (primitive polynomial x + 1: direction
+/// numbers v_1 = 2^31, v_k = v_{k-1} ^ (v_{k-1} >> 1)).
+inline constexpr uint32_t sobol_dim1(uint32_t index) {
+    uint32_t result = 0;
+    uint32_t v = 0x80000000u;
+    for (; index != 0; index >>= 1) {
+        if (index & 1u) result ^= v;
+        v ^= v >> 1;
+    }
+    return result;
+}
+
+/// 32-bit fixed point to a float in [0, 1). Truncates to the top 24 bits: rounding to nearest
+/// could carry a value across a dyadic boundary and break the stratification.
+inline float fixed_to_unit_float(uint32_t x) {
+    return std::min(static_cast<float>(x >> 8) * 0x1p-24f, kOneMinusEpsilon);
+}
+
+/// Owen-scrambled 1D value of (pixel hash `h`, sample index): shuffled, scrambled van der Corput.
+inline float scrambled_sobol_1d(uint32_t h, uint32_t index) {
+    uint32_t shuffled = owen_scramble_32(index, mix_bits_32(h ^ 0x68bc21ebu));
+    return fixed_to_unit_float(owen_scramble_32(sobol_dim0(shuffled), mix_bits_32(h + 1u)));
+}
+
+/// Owen-scrambled 2D value of (pixel hash `h`, sample index): shuffled, scrambled Sobol (0,2).
+inline Vec2f scrambled_sobol_2d(uint32_t h, uint32_t index) {
+    uint32_t shuffled = owen_scramble_32(index, mix_bits_32(h ^ 0x68bc21ebu));
+    uint32_t x = owen_scramble_32(sobol_dim0(shuffled), mix_bits_32(h + 1u));
+    uint32_t y = owen_scramble_32(sobol_dim1(shuffled), mix_bits_32(h + 2u));
+    return {fixed_to_unit_float(x), fixed_to_unit_float(y)};
+}
+
+/// Per-pixel Owen-scrambled Sobol sampler. A cheap value type (16 bytes): each thread copies
+/// it (or constructs its own) and calls start_pixel_sample() before each sample. Not thread-safe
+/// per instance; every value is a pure function of (seed, px, py, index, dimension), so the
+/// values never depend on which thread or pass draws them.
+///
+/// How an integrator continues after the scheduler drew the film offset:
+///   SobolSampler s(seed);                 // the same seed as the scheduler's options
+///   s.start_pixel_sample(cs.px, cs.py, cs.index);
+///   float u = s.get_1d();                 // dimension 2, then 3, ...
+/// cs.fx, cs.fy equal s.get_pixel_2d() for that (pixel, index).
+class SobolSampler {
+  public:
+    /// `seed` selects an independent scrambling of every pixel and dimension.
+    explicit SobolSampler(uint32_t seed = 0) : seed_(seed) {}
+
+    /// Starts sample `index` of pixel (px, py) and resets the dimension to `dimension`
+    /// (default kFirstFreeDimension).
+    void start_pixel_sample(uint32_t px, uint32_t py, uint32_t index,
+                            uint32_t dimension = kFirstFreeDimension) {
+        px_ = px;
+        py_ = py;
+        index_ = index;
+        dim_ = dimension;
+    }
+
+    /// Next 1D value in [0,1); consumes one dimension.
+    float get_1d() {
+        uint32_t h = hash_pixel_dimension(seed_, px_, py_, dim_);
+        ++dim_;
+        return scrambled_sobol_1d(h, index_);
+    }
+
+    /// Next 2D value in [0,1)^2; consumes two dimensions (one stratified pair).
+    Vec2f get_2d() {
+        uint32_t h = hash_pixel_dimension(seed_, px_, py_, dim_);
+        dim_ += 2;
+        return scrambled_sobol_2d(h, index_);
+    }
+
+    /// Film offset inside the pixel in [0,1)^2 from the reserved pair (kPixelDimension,
+    /// kPixelDimension + 1). Does not advance the dimension counter.
+    Vec2f get_pixel_2d() const {
+        return scrambled_sobol_2d(hash_pixel_dimension(seed_, px_, py_, kPixelDimension),
+                                  index_);
+    }
+
+    /// Next dimension get_1d / get_2d will use.
+    uint32_t dimension() const { return dim_; }
+    uint32_t seed() const { return seed_; }
+    uint32_t sample_index() const { return index_; }
+
+    /// One readable line of the sampler's state, for logs.
+    std::string describe() const;
+
+  private:
+    uint32_t seed_ = 0;
+    uint32_t px_ = 0, py_ = 0;
+    uint32_t index_ = 0;
+    uint32_t dim_ = kFirstFreeDimension;
+};
+
+}  // namespace tessera::sampling

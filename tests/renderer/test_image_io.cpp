@@ -1,0 +1,252 @@
+// Tests of EXR/PNG output, atomic writes, the OCIO display transform and `tessera diff`.
+#include <doctest/doctest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "renderer/color.h"
+#include "renderer/diff.h"
+#include "renderer/image_io.h"
+#include "test_helpers.h"
+
+using namespace tessera;
+namespace fs = std::filesystem;
+
+namespace {
+
+// A fresh, empty folder under the test output directory.
+fs::path fresh_dir(const std::string &name) {
+    fs::path d = fs::path(tessera::test::output_dir()) / "image_io" / name;
+    fs::remove_all(d);
+    fs::create_directories(d);
+    return d;
+}
+
+std::vector<std::string> listing(const fs::path &dir) {
+    std::vector<std::string> names;
+    for (const auto &e : fs::directory_iterator(dir)) names.push_back(e.path().filename());
+    std::sort(names.begin(), names.end());
+    return names;
+}
+
+// Values that exercise sign, range and fractional bits.
+std::vector<float> pattern(size_t n, float scale) {
+    std::vector<float> v(n);
+    for (size_t i = 0; i < n; ++i) v[i] = scale * std::sin(float(i) * 0.37f + 0.1f) * float(i % 7);
+    return v;
+}
+
+}  // namespace
+
+TEST_CASE("EXR float round trip is bit exact, layers by name") {
+    fs::path dir = fresh_dir("float");
+    const uint32_t w = 7, h = 5;
+    const size_t n = size_t(w) * h;
+    std::vector<ImageLayer> layers = {
+        {"", {"R", "G", "B"}, pattern(3 * n, 1.f), false},
+        {"albedo", {"R", "G", "B"}, pattern(3 * n, 0.1f), false},
+        {"depth", {"Z"}, pattern(n, 1000.f), true},
+    };
+    layers[2].data[4] = kInfinity;
+    std::string path = (dir / "a.exr").string();
+    write_exr(path, w, h, layers);
+    CHECK(listing(dir) == std::vector<std::string>{"a.exr"});  // no temporary left
+
+    uint32_t rw = 0, rh = 0;
+    std::vector<float> albedo = read_image_channels(path, {"albedo.R", "albedo.G", "albedo.B"},
+                                                    rw, rh);
+    CHECK(rw == w);
+    CHECK(rh == h);
+    CHECK(std::memcmp(albedo.data(), layers[1].data.data(), albedo.size() * 4) == 0);
+    std::vector<float> depth = read_image_channels(path, {"depth.Z"}, rw, rh);
+    CHECK(std::memcmp(depth.data(), layers[2].data.data(), depth.size() * 4) == 0);
+    CHECK(std::isinf(depth[4]));
+    sampling::RgbImage rgb = read_image_rgb(path);
+    CHECK(rgb.width == w);
+    CHECK(std::memcmp(rgb.data.data(), layers[0].data.data(), rgb.data.size() * 4) == 0);
+    CHECK_THROWS_AS(read_image_channels(path, {"nope.Z"}, rw, rh), std::runtime_error);
+}
+
+TEST_CASE("EXR half keeps half precision; depth and spp stay float") {
+    fs::path dir = fresh_dir("half");
+    sampling::Film film(4, 3);
+    for (uint32_t y = 0; y < 3; ++y) {
+        for (uint32_t x = 0; x < 4; ++x) {
+            for (uint32_t i = 0; i < 3 + x; ++i) {
+                Sample s;
+                s.radiance = Rgb(0.1f * float(x) + 0.01f * float(i), 1.f / 3.f, 1234.5f);
+                s.albedo = Rgb(0.5f, 0.25f, 0.125f);
+                s.normal = Vec3f(0, 0, 1);
+                s.depth = x == 3 ? kInfinity : 1234.567f + float(y);
+                film.add_sample(x, y, i, s);
+            }
+        }
+    }
+    std::string path = (dir / "film.exr").string();
+    ExrWriteOptions opt;
+    opt.half = true;
+    write_film_exr(path, film, opt);
+    std::vector<std::string> names = image_channel_names(path);
+    for (const char *c : {"R", "G", "B", "albedo.R", "albedo.G", "albedo.B", "normal.X",
+                          "normal.Y", "normal.Z", "depth.Z", "spp.Y"})
+        CHECK(std::find(names.begin(), names.end(), c) != names.end());
+
+    sampling::RgbImage beauty = read_image_rgb(path);
+    std::vector<float> expected = film.beauty_rgb();
+    for (size_t i = 0; i < expected.size(); ++i)
+        CHECK(beauty.data[i] == doctest::Approx(expected[i]).epsilon(1.0 / 1024));
+    uint32_t w = 0, h = 0;
+    std::vector<float> depth = read_image_channels(path, {"depth.Z"}, w, h);
+    std::vector<float> spp = read_image_channels(path, {"spp.Y"}, w, h);
+    CHECK(depth == film.depth());  // exact: always float
+    CHECK(spp == film.spp());
+    std::vector<float> normal = read_image_channels(path, {"normal.Z"}, w, h);
+    CHECK(normal[0] == 1.f);
+}
+
+TEST_CASE("display PNG through the embedded OCIO config") {
+    DisplayOptions opt;
+    opt.use_env = false;
+    DisplayTransform dt(opt);
+    CHECK(dt.config_source() == "embedded");
+    CHECK(dt.display() == "sRGB");
+    CHECK(dt.view() == "sRGB");
+
+    fs::path dir = fresh_dir("png");
+    sampling::RgbImage img(3, 1);
+    for (int c = 0; c < 3; ++c) {
+        img.at(0, 0, c) = 0.5f;
+        img.at(1, 0, c) = 0.f;
+        img.at(2, 0, c) = 1.f;
+    }
+    img.at(1, 0, 1) = 0.0031308f * 0.5f;  // linear segment: 12.92 * v * 255 = 5.16
+    std::string path = (dir / "grey.png").string();
+    write_display_image(path, img, opt);
+    CHECK(listing(dir) == std::vector<std::string>{"grey.png"});
+    sampling::RgbImage back = read_image_rgb(path);
+    REQUIRE(back.width == 3);
+    auto byte = [&](uint32_t x, int c) { return int(std::lround(back.at(x, 0, c) * 255.f)); };
+    for (int c = 0; c < 3; ++c) {
+        CHECK(std::abs(byte(0, c) - 188) <= 1);
+        CHECK(byte(2, c) == 255);
+    }
+    CHECK(byte(1, 0) == 0);
+    CHECK(byte(1, 1) == 5);
+
+    // The Raw view skips the transfer function: 0.5 -> 128.
+    opt.view = "Raw";
+    std::vector<uint8_t> raw = DisplayTransform(opt).to_8bit(img);
+    CHECK(int(raw[0]) == 128);
+    // Exposure +1 stop takes 0.5 to 1.0.
+    opt.view = "";
+    opt.exposure_stops = 1.f;
+    CHECK(int(DisplayTransform(opt).to_8bit(img)[0]) == 255);
+
+    CHECK(quantize_8bit(std::nanf("")) == 0);
+    CHECK(quantize_8bit(-1.f) == 0);
+    CHECK(quantize_8bit(2.f) == 255);
+    opt.display = "no-such-display";
+    CHECK_THROWS_AS(DisplayTransform{opt}, std::runtime_error);
+}
+
+TEST_CASE("explicit OCIO config path and $OCIO") {
+    fs::path dir = fresh_dir("ocio");
+    fs::path cfg = dir / "config.ocio";
+    {
+        std::ofstream f(cfg);
+        f << embedded_ocio_config();
+    }
+    DisplayOptions opt;
+    opt.config_path = cfg.string();
+    DisplayTransform from_file(opt);
+    CHECK(from_file.config_source() == cfg.string());
+    CHECK(from_file.view() == "sRGB");
+
+    const char *old = std::getenv("OCIO");
+    std::string saved = old ? old : "";
+    setenv("OCIO", cfg.c_str(), 1);
+    DisplayTransform from_env{DisplayOptions{}};
+    CHECK(from_env.config_source() == "$OCIO=" + cfg.string());
+    DisplayOptions no_env;
+    no_env.use_env = false;
+    CHECK(DisplayTransform(no_env).config_source() == "embedded");
+    if (old)
+        setenv("OCIO", saved.c_str(), 1);
+    else
+        unsetenv("OCIO");
+
+    opt.config_path = (dir / "missing.ocio").string();
+    CHECK_THROWS_AS(DisplayTransform{opt}, std::runtime_error);
+}
+
+TEST_CASE("failed writes throw and leave nothing behind") {
+    fs::path dir = fresh_dir("fail");
+    std::vector<ImageLayer> layers = {{"", {"R", "G", "B"}, std::vector<float>(12, 0.5f), false}};
+    // A folder that does not exist.
+    CHECK_THROWS_AS(write_exr((dir / "no/such/dir/x.exr").string(), 2, 2, layers),
+                    std::runtime_error);
+    // The target is a directory: the file is written, the rename fails, the temp goes.
+    fs::create_directories(dir / "taken.exr");
+    fs::create_directories(dir / "taken.png");
+    CHECK_THROWS_AS(write_exr((dir / "taken.exr").string(), 2, 2, layers), std::runtime_error);
+    CHECK_THROWS_AS(write_rgb8((dir / "taken.png").string(), 2, 2, std::vector<uint8_t>(12)),
+                    std::runtime_error);
+    CHECK(listing(dir) == std::vector<std::string>{"taken.exr", "taken.png"});
+    // Malformed layers are rejected before any file is created.
+    layers[0].data.pop_back();
+    CHECK_THROWS_AS(write_exr((dir / "bad.exr").string(), 2, 2, layers), std::invalid_argument);
+    CHECK(listing(dir) == std::vector<std::string>{"taken.exr", "taken.png"});
+    CHECK_THROWS_AS(read_image_rgb((dir / "missing.exr").string()), std::runtime_error);
+}
+
+TEST_CASE("tessera diff prints metrics and fails on bad input") {
+    fs::path dir = fresh_dir("diff");
+    // A: (0.5, 1, 0), (0.1, 0.2, 0.3);  B: (0.5, 0, 0), (0, 0.2, 0.5).
+    std::vector<ImageLayer> a = {{"", {"R", "G", "B"}, {0.5f, 1.f, 0.f, 0.1f, 0.2f, 0.3f}, false}};
+    std::vector<ImageLayer> b = {{"", {"R", "G", "B"}, {0.5f, 0.f, 0.f, 0.f, 0.2f, 0.5f}, false}};
+    std::string pa = (dir / "a.exr").string(), pb = (dir / "b.exr").string();
+    write_exr(pa, 2, 1, a);
+    write_exr(pb, 2, 1, b);
+    std::ostringstream out;
+    CHECK(run_diff(pa, pb, out) == 0);
+    std::string text = out.str();
+    // MSE per channel: R 0.005, G 0.5, B 0.02, total 0.175; relMSE G = 50.
+    auto row = [&](const std::string &name) {
+        std::istringstream is(text);
+        std::string line;
+        while (std::getline(is, line))
+            if (line.rfind(name + " ", 0) == 0) return line;
+        return std::string();
+    };
+    std::istringstream mse_row(row("MSE"));
+    std::string label;
+    double r = 0, g = 0, bb = 0, total = 0;
+    mse_row >> label >> r >> g >> bb >> total;
+    CHECK(r == doctest::Approx(0.005).epsilon(1e-4));
+    CHECK(g == doctest::Approx(0.5).epsilon(1e-4));
+    CHECK(bb == doctest::Approx(0.02).epsilon(1e-4));
+    CHECK(total == doctest::Approx(0.175).epsilon(1e-4));
+    std::istringstream rel_row(row("relMSE"));
+    rel_row >> label >> r >> g;
+    CHECK(g == doctest::Approx(50.0).epsilon(1e-4));
+    CHECK(!row("PSNR").empty());
+    std::istringstream mean_row(row("mean(B)"));
+    mean_row >> label >> r >> g >> bb;
+    CHECK(bb == doctest::Approx(0.25).epsilon(1e-4));
+
+    std::vector<ImageLayer> c = {{"", {"R", "G", "B"}, std::vector<float>(12, 0.f), false}};
+    std::string pc = (dir / "c.exr").string();
+    write_exr(pc, 2, 2, c);
+    std::ostringstream out2, out3;
+    CHECK(run_diff(pa, pc, out2) == 2);
+    CHECK(out2.str().find("sizes differ") != std::string::npos);
+    CHECK(run_diff(pa, (dir / "missing.exr").string(), out3) == 2);
+    CHECK(!out3.str().empty());
+}

@@ -1,0 +1,162 @@
+// PLY loading: exact values from small files written here, and the shared Stanford bunny.
+#include <doctest/doctest.h>
+
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+
+#include "renderer/mesh_io.h"
+#include "renderer/scene_desc.h"
+#include "test_helpers.h"
+
+using namespace tessera;
+namespace fs = std::filesystem;
+
+namespace {
+
+fs::path temp_dir() {
+    fs::path d = fs::temp_directory_path() / "tessera_test_mesh_io";
+    fs::create_directories(d);
+    return d;
+}
+
+std::string write_text(const std::string &name, const std::string &text) {
+    fs::path p = temp_dir() / name;
+    std::ofstream(p, std::ios::binary) << text;
+    return p.string();
+}
+
+template <typename T>
+void put(std::string &s, T v) {
+    char b[sizeof(T)];
+    std::memcpy(b, &v, sizeof(T));
+    s.append(b, sizeof(T));
+}
+
+// A unit quad (with normals and s/t uvs) and a triangle attached to it.
+const char *kAsciiQuad = R"(ply
+format ascii 1.0
+comment written by test_mesh_io
+element vertex 5
+property float x
+property float y
+property float z
+property float nx
+property float ny
+property float nz
+property float s
+property float t
+property float confidence
+element face 2
+property list uchar int vertex_indices
+end_header
+0 0 0 0 0 1 0 0 0.9
+1 0 0 0 0 1 1 0 0.9
+1 1 0 0 0 1 1 1 0.9
+0 1 0 0 0 1 0 1 0.9
+2 2 0.5 0 1 0 0.5 0.25 0.9
+4 0 1 2 3
+3 1 4 2
+)";
+
+}  // namespace
+
+TEST_CASE("load_ply: ASCII quad + triangle with normals and s/t uvs") {
+    MeshData m = load_ply(write_text("quad_ascii.ply", kAsciiQuad));
+    REQUIRE(m.p.size() == 5);
+    REQUIRE(m.n.size() == 5);
+    REQUIRE(m.uv.size() == 5);
+    // The quad splits into (0 1 2), (0 2 3); the triangle stays as it is.
+    std::vector<uint32_t> expect = {0, 1, 2, 0, 2, 3, 1, 4, 2};
+    CHECK(m.indices == expect);
+    CHECK(m.triangle_count() == 3);
+    CHECK(m.p[4].x == 2.f);
+    CHECK(m.p[4].y == 2.f);
+    CHECK(m.p[4].z == 0.5f);
+    CHECK(m.n[4].y == 1.f);
+    CHECK(m.n[4].z == 0.f);
+    CHECK(m.uv[4].x == 0.5f);
+    CHECK(m.uv[4].y == 0.25f);  // no v flip
+    CHECK(m.uv[2].x == 1.f);
+    CHECK(m.uv[2].y == 1.f);
+    CHECK(m.face_indices.empty());
+}
+
+TEST_CASE("load_ply: binary little-endian with u/v, uchar/uint indices, no normals") {
+    std::string s =
+        "ply\nformat binary_little_endian 1.0\nelement vertex 4\n"
+        "property float x\nproperty float y\nproperty float z\n"
+        "property float u\nproperty float v\n"
+        "element face 2\nproperty list uchar uint vertex_indices\nend_header\n";
+    const float verts[4][5] = {{-1.5f, 0.25f, 3.f, 0.f, 0.f},
+                               {1.5f, 0.25f, 3.f, 1.f, 0.f},
+                               {1.5f, 2.25f, 3.f, 1.f, 1.f},
+                               {-1.5f, 2.25f, -7.125f, 0.f, 0.75f}};
+    for (auto &v : verts)
+        for (float f : v) put(s, f);
+    put<uint8_t>(s, 3);
+    for (uint32_t i : {0u, 1u, 2u}) put(s, i);
+    put<uint8_t>(s, 4);
+    for (uint32_t i : {3u, 2u, 1u, 0u}) put(s, i);
+    MeshData m = load_ply(write_text("bin_le.ply", s));
+    REQUIRE(m.p.size() == 4);
+    CHECK(m.n.empty());  // never generated
+    REQUIRE(m.uv.size() == 4);
+    for (int i = 0; i < 4; ++i) {
+        CHECK(m.p[i].x == verts[i][0]);
+        CHECK(m.p[i].y == verts[i][1]);
+        CHECK(m.p[i].z == verts[i][2]);
+        CHECK(m.uv[i].x == verts[i][3]);
+        CHECK(m.uv[i].y == verts[i][4]);
+    }
+    std::vector<uint32_t> expect = {0, 1, 2, 3, 2, 1, 3, 1, 0};
+    CHECK(m.indices == expect);
+}
+
+TEST_CASE("load_ply: errors name the file") {
+    std::string missing = (temp_dir() / "does_not_exist.ply").string();
+    CHECK_THROWS_AS(load_ply(missing), SceneError);
+    try {
+        load_ply(missing);
+    } catch (const SceneError &e) {
+        CHECK(std::string(e.what()).rfind(missing + ": ", 0) == 0);
+    }
+    std::string bad = write_text("bad.ply",
+                                 "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\n"
+                                 "property float y\nproperty float z\nelement face 1\n"
+                                 "property list uchar int vertex_indices\nend_header\n"
+                                 "0 0 0\n3 0 1 7\n");
+    CHECK_THROWS_AS(load_ply(bad), SceneError);
+    std::string junk = write_text("junk.ply", "this is not a ply file\n");
+    CHECK_THROWS_AS(load_ply(junk), SceneError);
+}
+
+TEST_CASE("load_ply: Stanford bunny (binary) and bunny_lowres (ASCII, extra properties)") {
+    TESSERA_REQUIRE_SHARED(shared);
+    MeshData big = load_ply(shared + "/scenes/stanford-bunny/bunny.ply");
+    CHECK(big.p.size() == 35947);
+    CHECK(big.triangle_count() == 69451);
+    CHECK(big.n.empty());
+    CHECK(big.uv.empty());
+    // First vertex of the file.
+    CHECK(big.p[0].x == doctest::Approx(-0.0378297).epsilon(1e-6));
+    CHECK(big.p[0].y == doctest::Approx(0.12794).epsilon(1e-6));
+    CHECK(big.p[0].z == doctest::Approx(0.00447467).epsilon(1e-6));
+    // First face of the file.
+    CHECK(big.indices[0] == 21216);
+    CHECK(big.indices[1] == 21215);
+    CHECK(big.indices[2] == 20399);
+    uint32_t max_index = 0;
+    for (uint32_t i : big.indices) max_index = std::max(max_index, i);
+    CHECK(max_index < big.p.size());
+
+    MeshData low = load_ply(shared + "/scenes/stanford-bunny/bunny_lowres.ply");
+    CHECK(low.p.size() == 453);
+    CHECK(low.triangle_count() == 948);
+    CHECK(low.p[0].x == doctest::Approx(-0.0312216).epsilon(1e-6));
+    CHECK(low.p[0].y == doctest::Approx(0.126304).epsilon(1e-6));
+    CHECK(low.p[0].z == doctest::Approx(0.00514924).epsilon(1e-6));
+    CHECK(low.indices[0] == 164);
+    CHECK(low.indices[1] == 94);
+    CHECK(low.indices[2] == 98);
+}

@@ -1,0 +1,426 @@
+// Textures: procedural values at known points, mappings, parameter helpers, and image maps
+// (sRGB linearisation, v flip, wrap modes, footprint filtering) on images written here.
+#include <doctest/doctest.h>
+
+#include <OpenImageIO/imagebuf.h>
+
+#include <filesystem>
+#include <thread>
+
+#include "renderer/texture.h"
+#include "test_helpers.h"
+
+using namespace tessera;
+namespace fs = std::filesystem;
+
+namespace {
+
+Param num(const std::string &type, const std::string &name, std::vector<double> v) {
+    Param p;
+    p.type = type;
+    p.name = name;
+    p.numbers = std::move(v);
+    p.loc = {"test.pbrt", 1};
+    return p;
+}
+Param str(const std::string &type, const std::string &name, const std::string &v) {
+    Param p;
+    p.type = type;
+    p.name = name;
+    p.strings = {v};
+    p.loc = {"test.pbrt", 1};
+    return p;
+}
+Param flag(const std::string &name, bool v) {
+    Param p;
+    p.type = "bool";
+    p.name = name;
+    p.bools = {uint8_t(v)};
+    return p;
+}
+
+TextureDesc desc(const std::string &name, const std::string &type, const std::string &cls,
+                 std::vector<Param> params, Transform render_from_texture = {}) {
+    TextureDesc d;
+    d.name = name;
+    d.value_type = type;
+    d.tex_class = cls;
+    d.params.params = std::move(params);
+    d.loc = {"test.pbrt", 7};
+    d.render_from_texture = render_from_texture;
+    return d;
+}
+
+TextureEvalContext at_uv(float u, float v, float dudx = 0, float dvdy = 0) {
+    TextureEvalContext c;
+    c.uv = {u, v};
+    c.dudx = dudx;
+    c.dvdy = dvdy;
+    c.n = {0, 0, 1};
+    return c;
+}
+TextureEvalContext at_p(Vec3f p) {
+    TextureEvalContext c;
+    c.p = p;
+    c.n = {0, 0, 1};
+    return c;
+}
+
+fs::path temp_dir() {
+    fs::path d = fs::temp_directory_path() / "tessera_test_texture";
+    fs::create_directories(d);
+    return d;
+}
+
+/// Writes an image of `w` x `h` pixels, `nch` channels, rows top to bottom.
+template <typename T>
+std::string write_image(const std::string &name, int w, int h, int nch, OIIO::TypeDesc fmt,
+                        const std::vector<T> &data) {
+    std::string path = (temp_dir() / name).string();
+    OIIO::ImageBuf buf(OIIO::ImageSpec(w, h, nch, fmt));
+    buf.set_pixels(buf.roi(), OIIO::TypeDescFromC<T>::value(), data.data());
+    REQUIRE(buf.write(path));
+    return path;
+}
+
+// 4 x 2 sRGB PNG: top row (188,0,0) (0,188,0) (0,0,188) (255,255,255);
+// bottom row (10,20,30) (64,64,64) (128,128,128) (0,0,0).
+std::string test_png() {
+    std::vector<uint8_t> px = {188, 0,  0,  0,  188, 0,  0,   0,   188, 255, 255, 255,
+                               10,  20, 30, 64, 64,  64, 128, 128, 128, 0,   0,   0};
+    return write_image("rgb4x2.png", 4, 2, 3, OIIO::TypeDesc::UINT8, px);
+}
+
+float srgb8(int v) { return srgb_to_linear(v / 255.f); }
+
+}  // namespace
+
+TEST_CASE("srgb_to_linear matches the IEC 61966-2-1 curve") {
+    CHECK(srgb_to_linear(0.f) == 0.f);
+    CHECK(srgb_to_linear(1.f) == doctest::Approx(1.f));
+    CHECK(srgb8(188) == doctest::Approx(0.50289).epsilon(1e-4));
+    CHECK(srgb_to_linear(0.04f) == doctest::Approx(0.04f / 12.92f));
+}
+
+TEST_CASE("constant, scale and mix") {
+    std::vector<TextureDesc> d = {
+        desc("half", "float", "constant", {num("float", "value", {0.5})}),
+        desc("scaled", "float", "scale", {str("texture", "tex", "half"), num("float", "scale", {3})}),
+        desc("red", "spectrum", "constant", {num("rgb", "value", {0.8, 0.1, 0.2})}),
+        desc("redx2", "spectrum", "scale", {str("texture", "tex", "red"), num("float", "scale", {2})}),
+        desc("mixf", "float", "mix",
+             {num("float", "tex1", {0.2}), num("float", "tex2", {0.8}), num("float", "amount", {0.25})}),
+        desc("mixs", "spectrum", "mix",
+             {str("texture", "tex1", "red"), num("rgb", "tex2", {0, 1, 0}),
+              str("texture", "amount", "half")}),
+        desc("mixdef", "float", "mix", {}),  // defaults: tex1 0, tex2 1, amount 0.5
+    };
+    TextureSet set(d);
+    CHECK_FALSE(set.uses_texture_system());
+    CHECK(set.size() == d.size());
+    TextureEvalContext c = at_uv(0.3f, 0.7f);
+    CHECK(set.get_float("half")->evaluate(c) == 0.5f);
+    CHECK(set.get_float("scaled")->evaluate(c) == doctest::Approx(1.5f));
+    Rgb r2 = set.get_spectrum("redx2")->evaluate(c);
+    CHECK(r2.r == doctest::Approx(1.6f));
+    CHECK(r2.g == doctest::Approx(0.2f));
+    CHECK(r2.b == doctest::Approx(0.4f));
+    CHECK(set.get_float("mixf")->evaluate(c) == doctest::Approx(0.35f));
+    Rgb m = set.get_spectrum("mixs")->evaluate(c);
+    CHECK(m.r == doctest::Approx(0.4f));
+    CHECK(m.g == doctest::Approx(0.55f));
+    CHECK(m.b == doctest::Approx(0.1f));
+    CHECK(set.get_float("mixdef")->evaluate(c) == doctest::Approx(0.5f));
+    CHECK(set.get_float("red") == nullptr);  // float and spectrum names are separate
+    CHECK(set.get_spectrum("nothing") == nullptr);
+}
+
+TEST_CASE("checkerboard 2D: cells, uv mapping, footprint filtering") {
+    std::vector<TextureDesc> d = {
+        desc("c", "float", "checkerboard", {}),
+        desc("c2", "float", "checkerboard",
+             {num("float", "uscale", {2}), num("float", "vscale", {4}), num("float", "udelta", {0.5})}),
+        desc("cs", "spectrum", "checkerboard",
+             {num("rgb", "tex1", {1, 0, 0}), num("rgb", "tex2", {0, 0, 1})}),
+    };
+    TextureSet set(d);
+    const FloatTexture *c = set.get_float("c");
+    // tex1 (default 1) where floor(s) + floor(t) is even, tex2 (default 0) elsewhere.
+    CHECK(c->evaluate(at_uv(0.25f, 0.25f)) == 1.f);
+    CHECK(c->evaluate(at_uv(1.25f, 0.25f)) == 0.f);
+    CHECK(c->evaluate(at_uv(1.25f, 1.75f)) == 1.f);
+    CHECK(c->evaluate(at_uv(-0.25f, 0.25f)) == 0.f);
+    CHECK(c->evaluate(at_uv(-0.25f, -0.25f)) == 1.f);
+    // s = 2u + 0.5, t = 4v: u = 0.3 -> s = 1.1 (odd), v = 0.1 -> t = 0.4 (even).
+    const FloatTexture *c2 = set.get_float("c2");
+    CHECK(c2->evaluate(at_uv(0.3f, 0.1f)) == 0.f);
+    CHECK(c2->evaluate(at_uv(0.3f, 0.3f)) == 1.f);  // t = 1.2
+    CHECK(c2->evaluate(at_uv(0.1f, 0.1f)) == 1.f);  // s = 0.7
+    Rgb a = set.get_spectrum("cs")->evaluate(at_uv(0.5f, 0.5f));
+    Rgb b = set.get_spectrum("cs")->evaluate(at_uv(1.5f, 0.5f));
+    CHECK((a.r == 1.f && a.b == 0.f));
+    CHECK((b.r == 0.f && b.b == 1.f));
+    // A footprint of many cells averages to 1/2; a tiny one inside a cell is exact.
+    CHECK(c->evaluate(at_uv(0.37f, 0.61f, 20.f, 20.f)) == doctest::Approx(0.5f).epsilon(0.01));
+    CHECK(c->evaluate(at_uv(0.5f, 0.5f, 0.01f, 0.01f)) == 1.f);
+    // Straddling one edge in s only (t well inside the cell): the tent filter is symmetric,
+    // so exactly on the edge the result is 1/2.
+    CHECK(c->evaluate(at_uv(1.0f, 0.5f, 0.1f, 0.01f)) == doctest::Approx(0.5f));
+    // Slightly inside cell 0: more than half of the footprint has value 1.
+    float near_edge = c->evaluate(at_uv(0.97f, 0.5f, 0.1f, 0.01f));
+    CHECK(near_edge > 0.5f);
+    CHECK(near_edge < 1.f);
+}
+
+TEST_CASE("checkerboard 3D uses the texture transform") {
+    std::vector<TextureDesc> d = {
+        desc("c3", "float", "checkerboard", {num("integer", "dimension", {3})},
+             Transform::translate({1, 0, 0})),
+    };
+    TextureSet set(d);
+    const FloatTexture *c = set.get_float("c3");
+    // Texture space is render space shifted by -1 in x.
+    CHECK(c->evaluate(at_p({1.5f, 0.5f, 0.5f})) == 1.f);
+    CHECK(c->evaluate(at_p({2.5f, 0.5f, 0.5f})) == 0.f);
+    CHECK(c->evaluate(at_p({2.5f, 1.5f, 0.5f})) == 1.f);
+    CHECK(c->evaluate(at_p({0.5f, 0.5f, 0.5f})) == 0.f);
+}
+
+TEST_CASE("bilerp and the spherical, cylindrical and planar mappings") {
+    // With v00 = v01 = 0 and v10 = v11 = 1 a bilerp texture returns s; the swapped one t.
+    auto s_of = [](const std::string &name, std::vector<Param> extra, Transform t = {}) {
+        std::vector<Param> ps = {num("float", "v00", {0}), num("float", "v01", {0}),
+                                 num("float", "v10", {1}), num("float", "v11", {1})};
+        ps.insert(ps.end(), extra.begin(), extra.end());
+        return desc(name, "float", "bilerp", ps, t);
+    };
+    auto t_of = [](const std::string &name, std::vector<Param> extra, Transform t = {}) {
+        std::vector<Param> ps = {num("float", "v00", {0}), num("float", "v01", {1}),
+                                 num("float", "v10", {0}), num("float", "v11", {1})};
+        ps.insert(ps.end(), extra.begin(), extra.end());
+        return desc(name, "float", "bilerp", ps, t);
+    };
+    std::vector<TextureDesc> d = {
+        s_of("uv_s", {num("float", "uscale", {0.5}), num("float", "udelta", {0.1})}),
+        t_of("uv_t", {num("float", "vscale", {2}), num("float", "vdelta", {-0.5})}),
+        s_of("sph_s", {str("string", "mapping", "spherical")}),
+        t_of("sph_t", {str("string", "mapping", "spherical")}),
+        s_of("cyl_s", {str("string", "mapping", "cylindrical")}),
+        t_of("cyl_t", {str("string", "mapping", "cylindrical")}, Transform::translate({0, 0, 2})),
+        s_of("pl_s",
+             {str("string", "mapping", "planar"), num("vector3", "v1", {0, 0, 1}),
+              num("vector3", "v2", {1, 0, 0}), num("float", "udelta", {0.25})},
+             Transform::translate({1, 0, 0})),
+        t_of("pl_t",
+             {str("string", "mapping", "planar"), num("vector3", "v1", {0, 0, 1}),
+              num("vector3", "v2", {1, 0, 0}), num("float", "vdelta", {0.5})},
+             Transform::translate({1, 0, 0})),
+        desc("bl_rgb", "spectrum", "bilerp",
+             {num("rgb", "v00", {1, 0, 0}), num("rgb", "v11", {0, 0, 1}),
+              num("rgb", "v01", {0, 0, 0}), num("rgb", "v10", {0, 0, 0})}),
+    };
+    TextureSet set(d);
+    TextureEvalContext c = at_uv(0.6f, 0.4f);
+    CHECK(set.get_float("uv_s")->evaluate(c) == doctest::Approx(0.4f));  // 0.5 * 0.6 + 0.1
+    CHECK(set.get_float("uv_t")->evaluate(c) == doctest::Approx(0.3f));  // 2 * 0.4 - 0.5
+    // Spherical: s = theta / pi, t = phi / 2pi (pbrt-v4).
+    CHECK(set.get_float("sph_s")->evaluate(at_p({0, 0, 3})) == doctest::Approx(0.f));
+    CHECK(set.get_float("sph_s")->evaluate(at_p({2, 0, 0})) == doctest::Approx(0.5f));
+    CHECK(set.get_float("sph_s")->evaluate(at_p({0, 0, -1})) == doctest::Approx(1.f));
+    CHECK(set.get_float("sph_t")->evaluate(at_p({0, 1, 0})) == doctest::Approx(0.25f));
+    CHECK(set.get_float("sph_t")->evaluate(at_p({-1, 0, 0.5f})) == doctest::Approx(0.5f));
+    // Cylindrical: s = (pi + atan2(y, x)) / 2pi, t = z in texture space.
+    CHECK(set.get_float("cyl_s")->evaluate(at_p({1, 0, 0})) == doctest::Approx(0.5f));
+    CHECK(set.get_float("cyl_s")->evaluate(at_p({0, 1, 0})) == doctest::Approx(0.75f));
+    CHECK(set.get_float("cyl_t")->evaluate(at_p({1, 0, 2.3f})) == doctest::Approx(0.3f));
+    // Planar: s = udelta + dot(p_tex, v1), t = vdelta + dot(p_tex, v2); p_tex = p - (1,0,0).
+    CHECK(set.get_float("pl_s")->evaluate(at_p({5, 9, 0.5f})) == doctest::Approx(0.75f));
+    CHECK(set.get_float("pl_t")->evaluate(at_p({1.25f, 9, 0.5f})) == doctest::Approx(0.75f));
+    Rgb q = set.get_spectrum("bl_rgb")->evaluate(at_uv(0.5f, 0.5f));
+    CHECK(q.r == doctest::Approx(0.25f));
+    CHECK(q.g == doctest::Approx(0.f));
+    CHECK(q.b == doctest::Approx(0.25f));
+}
+
+TEST_CASE("directionmix follows the normal") {
+    std::vector<TextureDesc> d = {
+        desc("dm", "float", "directionmix",
+             {num("float", "tex1", {1}), num("float", "tex2", {0}), num("vector3", "dir", {0, 0, 1})}),
+    };
+    TextureSet set(d);
+    TextureEvalContext c = at_uv(0, 0);
+    c.n = {0, 0, -1};
+    CHECK(set.get_float("dm")->evaluate(c) == doctest::Approx(1.f));
+    c.n = normalize(Vec3f(1, 0, 1));
+    CHECK(set.get_float("dm")->evaluate(c) == doctest::Approx(std::sqrt(0.5f)));
+}
+
+TEST_CASE("material parameter helpers") {
+    std::vector<TextureDesc> d = {
+        desc("bright", "spectrum", "constant", {num("rgb", "value", {1.5, 0.5, -0.0})}),
+        desc("rough", "float", "constant", {num("float", "value", {0.3})}),
+    };
+    TextureSet set(d);
+    ParamSet ps;
+    ps.params = {str("texture", "reflectance", "bright"), num("rgb", "Kd", {0.2, 0.4, 0.6}),
+                 str("texture", "roughness", "rough"), num("float", "eta", {1.33}),
+                 str("texture", "missing", "nope"), str("texture", "wrongkind", "rough")};
+    TextureEvalContext c = at_uv(0.5f, 0.5f);
+    // Reflectance from a texture is clamped to [0,1]; the unbounded lookup is not.
+    Rgb clamped = set.spectrum_param(ps, "reflectance", std::nullopt, false)->evaluate(c);
+    CHECK(clamped.r == 1.f);
+    CHECK(clamped.g == 0.5f);
+    Rgb raw = set.spectrum_param(ps, "reflectance", std::nullopt, true)->evaluate(c);
+    CHECK(raw.r == 1.5f);
+    // The clamping wrapper is made once per texture.
+    CHECK(set.spectrum_param(ps, "reflectance", std::nullopt, false) ==
+          set.spectrum_param(ps, "reflectance", std::nullopt, false));
+    Rgb kd = set.spectrum_param(ps, "Kd", Rgb(0.5f), false)->evaluate(c);
+    CHECK(kd.b == doctest::Approx(0.6f));
+    CHECK(set.spectrum_param(ps, "absent", std::nullopt, false) == nullptr);
+    Rgb def = set.spectrum_param(ps, "absent", Rgb(0.25f), false)->evaluate(c);
+    CHECK(def.g == 0.25f);
+    CHECK(set.float_param(ps, "roughness", 0.f) == set.get_float("rough"));
+    CHECK(set.float_param(ps, "eta", 1.5f)->evaluate(c) == doctest::Approx(1.33f));
+    CHECK(set.float_param(ps, "absent", 1.5f)->evaluate(c) == 1.5f);
+    CHECK_THROWS_AS(set.float_param(ps, "missing", 0.f), SceneError);
+    CHECK_THROWS_AS(set.spectrum_param(ps, "wrongkind", std::nullopt, true), SceneError);
+}
+
+TEST_CASE("bad texture declarations") {
+    CHECK_THROWS_AS(TextureSet({desc("x", "float", "nosuchclass", {})}), SceneError);
+    CHECK_THROWS_AS(TextureSet({desc("x", "vector", "constant", {})}), SceneError);
+    CHECK_THROWS_AS(TextureSet({desc("x", "float", "scale", {str("texture", "tex", "later")}),
+                                desc("later", "float", "constant", {})}),
+                    SceneError);
+    CHECK_THROWS_AS(TextureSet({desc("x", "float", "constant", {}),
+                                desc("x", "float", "constant", {})}),
+                    SceneError);
+    CHECK_THROWS_AS(TextureSet({desc("x", "spectrum", "imagemap",
+                                     {str("string", "filename", "/no/such/image.png")})}),
+                    SceneError);
+    // Unsupported classes warn and become a constant 0.5.
+    int before = warning_count();
+    TextureSet set({desc("noise", "float", "fbm", {num("integer", "octaves", {4})})});
+    CHECK(warning_count() == before + 1);
+    CHECK(set.get_float("noise")->evaluate(at_uv(0.1f, 0.2f)) == 0.5f);
+}
+
+TEST_CASE("imagemap: sRGB linearisation, v flip, wrap modes, scale and invert") {
+    std::string png = test_png();
+    std::vector<TextureDesc> d = {
+        desc("img", "spectrum", "imagemap", {str("string", "filename", png)}),
+        desc("imgf", "float", "imagemap", {str("string", "filename", png)}),
+        desc("black", "spectrum", "imagemap",
+             {str("string", "filename", png), str("string", "wrap", "black")}),
+        desc("clamp", "spectrum", "imagemap",
+             {str("string", "filename", png), str("string", "wrap", "clamp")}),
+        desc("lin", "spectrum", "imagemap",
+             {str("string", "filename", png), str("string", "encoding", "linear")}),
+        desc("gamma", "spectrum", "imagemap",
+             {str("string", "filename", png), str("string", "encoding", "gamma 2.2")}),
+        desc("inv", "spectrum", "imagemap",
+             {str("string", "filename", png), flag("invert", true), num("float", "scale", {0.5})}),
+        desc("point", "float", "imagemap",
+             {str("string", "filename", png), str("string", "filter", "point")}),
+    };
+    TextureSet set(d);
+    CHECK(set.uses_texture_system());
+    const SpectrumTexture *img = set.get_spectrum("img");
+    // Texel centres: s = (i + 0.5) / 4; top row at v = 0.75 (pbrt looks up (s, 1 - v)).
+    Rgb tl = img->evaluate(at_uv(0.125f, 0.75f));
+    CHECK(tl.r == doctest::Approx(srgb8(188)).epsilon(1e-3));
+    CHECK(tl.g == doctest::Approx(0.f));
+    CHECK(tl.b == doctest::Approx(0.f));
+    Rgb tr = img->evaluate(at_uv(0.875f, 0.75f));
+    CHECK(tr.g == doctest::Approx(1.f).epsilon(1e-3));
+    Rgb bl = img->evaluate(at_uv(0.125f, 0.25f));
+    CHECK(bl.r == doctest::Approx(srgb8(10)).epsilon(2e-3));
+    CHECK(bl.g == doctest::Approx(srgb8(20)).epsilon(2e-3));
+    CHECK(bl.b == doctest::Approx(srgb8(30)).epsilon(2e-3));
+    Rgb b3 = img->evaluate(at_uv(0.625f, 0.25f));
+    CHECK(b3.g == doctest::Approx(srgb8(128)).epsilon(1e-3));
+    // Half way between two texel centres, bilinear filtering averages the *linear* values.
+    Rgb mid = img->evaluate(at_uv(0.25f, 0.75f));
+    CHECK(mid.r == doctest::Approx(0.5f * srgb8(188)).epsilon(2e-3));
+    CHECK(mid.g == doctest::Approx(0.5f * srgb8(188)).epsilon(2e-3));
+    // Float image maps read channel 0.
+    CHECK(set.get_float("imgf")->evaluate(at_uv(0.125f, 0.75f)) ==
+          doctest::Approx(srgb8(188)).epsilon(1e-3));
+    CHECK(set.get_float("point")->evaluate(at_uv(0.2f, 0.6f)) ==
+          doctest::Approx(srgb8(188)).epsilon(1e-3));
+    // Wrap modes one texel width beyond s = 1.
+    Rgb rep = img->evaluate(at_uv(1.125f, 0.75f));
+    CHECK(rep.r == doctest::Approx(srgb8(188)).epsilon(1e-3));
+    Rgb blk = set.get_spectrum("black")->evaluate(at_uv(1.125f, 0.75f));
+    CHECK(blk.r == 0.f);
+    CHECK(blk.g == 0.f);
+    Rgb clp = set.get_spectrum("clamp")->evaluate(at_uv(1.125f, 0.75f));
+    CHECK(clp.r == doctest::Approx(1.f).epsilon(1e-3));  // the white edge texel
+    CHECK(clp.b == doctest::Approx(1.f).epsilon(1e-3));
+    // Encodings.
+    CHECK(set.get_spectrum("lin")->evaluate(at_uv(0.125f, 0.75f)).r ==
+          doctest::Approx(188.f / 255.f).epsilon(1e-3));
+    CHECK(set.get_spectrum("gamma")->evaluate(at_uv(0.125f, 0.75f)).r ==
+          doctest::Approx(std::pow(188.f / 255.f, 2.2f)).epsilon(1e-3));
+    // invert: max(0, 1 - scale * value).
+    Rgb inv = set.get_spectrum("inv")->evaluate(at_uv(0.125f, 0.75f));
+    CHECK(inv.r == doctest::Approx(1.f - 0.5f * srgb8(188)).epsilon(1e-3));
+    CHECK(inv.g == doctest::Approx(1.f));
+}
+
+TEST_CASE("imagemap: float EXR stays linear and unclamped, relative file names") {
+    std::vector<float> px = {0.25f, 2.5f, 0.f, 1.f, 0.125f, 4.f,  // top row
+                             0.5f,  0.5f, 0.5f, 8.f, 0.f,  0.f};  // bottom row
+    std::string exr = write_image("hdr2x2.exr", 2, 2, 3, OIIO::TypeDesc::FLOAT, px);
+    TextureDesc t = desc("hdr", "spectrum", "imagemap", {str("string", "filename", "hdr2x2.exr")});
+    t.base_dir = temp_dir().string();
+    TextureSet set({t});
+    const SpectrumTexture *hdr = set.get_spectrum("hdr");
+    Rgb a = hdr->evaluate(at_uv(0.25f, 0.75f));
+    CHECK(a.r == doctest::Approx(0.25f));
+    CHECK(a.g == doctest::Approx(2.5f));
+    Rgb b = hdr->evaluate(at_uv(0.75f, 0.25f));
+    CHECK(b.r == doctest::Approx(8.f));
+    ParamSet ps;
+    ps.params = {str("texture", "reflectance", "hdr")};
+    CHECK(set.spectrum_param(ps, "reflectance", std::nullopt, false)
+              ->evaluate(at_uv(0.25f, 0.75f))
+              .g == 1.f);
+}
+
+TEST_CASE("imagemap: a large footprint averages a checkerboard image, from many threads") {
+    // 64 x 64 sRGB PNG of 8 x 8-pixel black and white squares.
+    std::vector<uint8_t> px(64 * 64);
+    for (int y = 0; y < 64; ++y)
+        for (int x = 0; x < 64; ++x) px[y * 64 + x] = ((x / 8 + y / 8) & 1) ? 255 : 0;
+    std::string png = write_image("checker64.png", 64, 64, 1, OIIO::TypeDesc::UINT8, px);
+    for (const char *filter : {"bilinear", "trilinear", "ewa"}) {
+        CAPTURE(filter);
+        TextureSet set({desc("chk", "spectrum", "imagemap",
+                             {str("string", "filename", png), str("string", "filter", filter)})});
+        const SpectrumTexture *t = set.get_spectrum("chk");
+        // Inside a square with a tiny footprint: exactly black or white (grey image -> rgb).
+        Rgb white = t->evaluate(at_uv(12.f / 64, 1 - 4.f / 64, 1e-4f, 1e-4f));
+        CHECK(white.r == doctest::Approx(1.f).epsilon(1e-3));
+        CHECK(white.b == doctest::Approx(1.f).epsilon(1e-3));
+        CHECK(t->evaluate(at_uv(4.f / 64, 1 - 4.f / 64, 1e-4f, 1e-4f)).g ==
+              doctest::Approx(0.f));
+        // Footprint of the whole image: the mean, 1/2 (in linear units).
+        Rgb avg = t->evaluate(at_uv(0.5f, 0.5f, 1.f, 1.f));
+        CHECK(avg.r == doctest::Approx(0.5f).epsilon(0.02));
+        // Many threads at once give the same values as one.
+        std::vector<float> out(8 * 200);
+        std::vector<std::thread> threads;
+        for (int k = 0; k < 8; ++k)
+            threads.emplace_back([&, k] {
+                for (int i = 0; i < 200; ++i)
+                    out[k * 200 + i] = t->evaluate(at_uv(i / 200.f, 0.3f, 0.002f, 0.002f)).r;
+            });
+        for (auto &th : threads) th.join();
+        for (int i = 0; i < 200; ++i) {
+            float ref = t->evaluate(at_uv(i / 200.f, 0.3f, 0.002f, 0.002f)).r;
+            for (int k = 0; k < 8; ++k) CHECK(out[k * 200 + i] == ref);
+        }
+    }
+}
