@@ -68,7 +68,8 @@ colorspaces:
     isdata: false
     encoding: sdr-video
     allocation: uniform
-    from_scene_reference: !<ExponentWithLinearTransform> {gamma: 2.4, offset: 0.055, direction: inverse}
+    from_scene_reference: !<ExponentWithLinearTransform>
+      {gamma: 2.4, offset: 0.055, direction: inverse}
 
   - !<ColorSpace>
     name: raw

@@ -314,6 +314,11 @@ void fill_triangle(const TriangleMesh &m, unsigned prim, float b1, float b2,
     float b0 = 1.f - b1 - b2;
     si.p = p0 * b0 + p1 * b1 + p2 * b2;
     si.p_error = (abs(p0 * b0) + abs(p1 * b1) + abs(p2 * b2)) * gamma_n(7);
+    // pbrt's per-axis bound is zero on axis-aligned planes through 0 (a floor at y = 0). pbrt's
+    // own watertight test rejects t below its error bound; Embree's does not, so the bound
+    // gets a floor relative to the triangle's largest coordinate (still scale-invariant).
+    float mag = max_component(vmax(abs(p0), vmax(abs(p1), abs(p2))));
+    si.p_error = vmax(si.p_error, Vec3f(mag, mag, mag) * gamma_n(7));
     Vec2f uv0{0, 0}, uv1{1, 0}, uv2{1, 1};
     if (!m.uv.empty()) {
         uv0 = m.uv[i0];

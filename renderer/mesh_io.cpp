@@ -1,9 +1,9 @@
 // PLY reading through assimp (see mesh_io.h for what is kept and how quads are split).
 #include "renderer/mesh_io.h"
 
-#include <assimp/Importer.hpp>
 #include <assimp/postprocess.h>
 #include <assimp/scene.h>
+#include <assimp/Importer.hpp>
 
 #include <filesystem>
 
@@ -25,9 +25,10 @@ MeshData load_ply(const std::string &path) {
 
     Assimp::Importer importer;
     // NOTE: no post-processing at all. aiProcess_JoinIdenticalVertices would drop unreferenced
-    // vertices and merge equal ones (the bunny's 35947 vertices become 34834), aiProcess_Triangulate
-    // is not needed for triangles and quads, and normal generation must not invent shading normals.
-    // Vertex positions, order and sharing therefore stay exactly as in the file.
+    // vertices and merge equal ones (the bunny's 35947 vertices become 34834),
+    // aiProcess_Triangulate is not needed for triangles and quads, and normal generation must not
+    // invent shading normals. Vertex positions, order and sharing therefore stay exactly as in the
+    // file.
     const aiScene *scene = importer.ReadFile(path, 0);
     if (!scene) fail(path, std::string("cannot read PLY: ") + importer.GetErrorString());
     if (scene->mNumMeshes == 0) fail(path, "PLY file has no mesh");

@@ -16,10 +16,10 @@ namespace tessera {
 
 /// An indexed triangle mesh in object space, as read from a file.
 struct MeshData {
-    std::vector<Vec3f> p;             ///< vertex positions (object space, file units)
-    std::vector<Vec3f> n;             ///< per-vertex normals as stored (not normalised); empty if none
-    std::vector<Vec2f> uv;            ///< per-vertex texture coordinates; empty if none
-    std::vector<uint32_t> indices;    ///< 3 vertex indices per triangle, counter-clockwise as stored
+    std::vector<Vec3f> p;   ///< vertex positions (object space, file units)
+    std::vector<Vec3f> n;   ///< per-vertex normals as stored (not normalised); empty if none
+    std::vector<Vec2f> uv;  ///< per-vertex texture coordinates; empty if none
+    std::vector<uint32_t> indices;  ///< 3 vertex indices per triangle, counter-clockwise as stored
     /// Per-triangle "face_indices" (pbrt's Ptex face ids). Always empty: assimp drops unknown
     /// face properties (see load_ply).
     std::vector<int> face_indices;

@@ -129,12 +129,16 @@ struct TrowbridgeReitz {
     /// Height-correlated masking-shadowing G(wo, wi) = 1 / (1 + Lambda(wo) + Lambda(wi)).
     float g(Vec3f wo, Vec3f wi) const { return 1.f / (1.f + lambda(wo) + lambda(wi)); }
 
-    /// Distribution of normals visible from w: D_w(wm) = G1(w) / |cos w| * D(wm) * |w . wm|
-    /// (PBRT eq. 9.23). Units: 1/sr over wm.
+    /// Distribution of normals visible from w: D_w(wm) = G1(w) / |cos w| * D(wm) * <w . wm>
+    /// (Heitz 2014, eq. 38; PBRT eq. 9.23), with w mirrored to the +z side when it lies below (the
+    /// sampler's symmetric convention) and <.> clamping back-facing normals to zero, so that it
+    /// integrates to 1 over the +z hemisphere. Units: 1/sr over wm.
     float d(Vec3f w, Vec3f wm) const {
         float c = abs_cos_theta(w);
         if (c == 0.f) return 0.f;
-        return g1(w) / c * d(wm) * absdot(w, wm);
+        float w_dot_wm = w.z < 0.f ? -dot(w, wm) : dot(w, wm);
+        if (!(w_dot_wm > 0.f)) return 0.f;
+        return g1(w) / c * d(wm) * w_dot_wm;
     }
 
     /// Density (1/sr over wm) with which sample_wm(w, u) returns wm.

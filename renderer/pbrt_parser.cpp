@@ -7,6 +7,7 @@
 #include "renderer/pbrt_parser.h"
 
 #include <charconv>
+#include <cmath>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -36,7 +37,8 @@ struct Token {
 /// numbers, true/false). '#' starts a comment up to the end of the line.
 class Tokenizer {
   public:
-    Tokenizer(std::string text, std::string file) : text_(std::move(text)), file_(std::move(file)) {}
+    Tokenizer(std::string text, std::string file)
+        : text_(std::move(text)), file_(std::move(file)) {}
 
     const std::string &file() const { return file_; }
     FileLoc loc(int line) const { return {file_, line}; }
@@ -141,7 +143,7 @@ std::optional<double> to_number(const Token &t) {
     if (*b == '+') ++b;  // from_chars rejects a leading '+'
     double v = 0;
     auto [ptr, ec] = std::from_chars(b, e, v);
-    if (ec != std::errc() || ptr != e) return std::nullopt;
+    if (ec != std::errc() || ptr != e || !std::isfinite(v)) return std::nullopt;
     return v;
 }
 
@@ -201,7 +203,8 @@ void merge_defaults(ParamSet &params, const ParamSet &defaults) {
 
 class Parser {
   public:
-    Parser(SceneDesc &scene, std::string main_dir) : scene_(scene), main_dir_(std::move(main_dir)) {}
+    Parser(SceneDesc &scene, std::string main_dir)
+        : scene_(scene), main_dir_(std::move(main_dir)) {}
 
     /// Parses one file's tokens; `dir` is that file's directory.
     void parse(Tokenizer &tok, const std::string &dir, int depth);
@@ -212,7 +215,8 @@ class Parser {
     // --- token helpers
     Token expect_token(Tokenizer &tok, const char *what) {
         std::optional<Token> t = tok.next();
-        if (!t) throw SceneError(tok.loc(tok.line()), std::string("unexpected end of file: ") + what);
+        if (!t)
+            throw SceneError(tok.loc(tok.line()), std::string("unexpected end of file: ") + what);
         return *t;
     }
     std::string expect_string(Tokenizer &tok, const std::string &directive) {
@@ -577,6 +581,7 @@ void Parser::parse(Tokenizer &tok, const std::string &dir, int depth) {
         } else if (d == "WorldBegin") {
             if (in_world_) throw SceneError(loc, "WorldBegin given twice");
             in_world_ = true;
+            active_start_ = true;  // pbrt-v4 resets the active transforms too
             state_.ctm = Transform();
             named_coord_sys_["world"] = state_.ctm;
         } else if (d == "WorldEnd") {
@@ -766,8 +771,7 @@ void Parser::finish(const Tokenizer &main) {
                                        "\" without ObjectEnd");
     for (const StackEntry &e : stack_)
         warn(e.loc, std::string(push_name(e.kind)) + " without a matching end");
-    if (!in_world_ && !scene_.shapes.empty())
-        throw SceneError(main.loc(main.line()), "no WorldBegin");
+    if (!in_world_) warn(main.loc(main.line()), "no WorldBegin: the scene is empty");
     auto check_material = [&](const ShapeDesc &s) {
         if (!s.material.empty() && !scene_.materials.count(s.material))
             throw SceneError(s.loc, "named material \"" + s.material + "\" is not defined");

@@ -42,12 +42,15 @@ int warning_count();
 std::string last_warning();
 
 /// One typed parameter: `"float fov" [ 45 ]`. Types are pbrt-v4's: integer, float, point2,
-/// vector2, point3, vector3, normal (== normal3), rgb, blackbody, spectrum, bool, string, texture.
+/// vector2, point3, vector3, normal, rgb, blackbody, spectrum, bool, string, texture. The parser
+/// canonicalises the aliases point -> point3, vector -> vector3, normal3 -> normal, color -> rgb.
 struct Param {
     std::string type, name;
-    std::vector<double> numbers;        ///< integer/float/point/vector/normal/rgb/blackbody, spectrum as pairs
-    std::vector<std::string> strings;   ///< string/texture/bool("true"/"false")/spectrum (named)
-    std::vector<uint8_t> bools;
+    /// integer/float/point/vector/normal/rgb/blackbody values; spectrum (lambda, value) pairs
+    /// (also those read from a spectrum file).
+    std::vector<double> numbers;
+    std::vector<std::string> strings;   ///< string/texture values, a named spectrum
+    std::vector<uint8_t> bools;         ///< bool values (1 = true)
     FileLoc loc;
     mutable bool used = false;
 };
@@ -74,13 +77,20 @@ class ParamSet {
     std::vector<Vec3f> get_vector3s(const std::string &name) const;
     std::vector<Vec3f> get_normals(const std::string &name) const;
     std::vector<std::string> get_strings(const std::string &name) const;
-    /// Name of a texture parameter (`"texture reflectance" "mytex"`), empty if absent.
+    /// Name of a texture parameter (`"texture reflectance" "mytex"`), empty if absent or if
+    /// the parameter of that name is not texture-typed (then it is left unused for get_rgb or
+    /// get_float).
     std::string get_texture(const std::string &name) const;
     /// A spectrum-valued parameter given as rgb, blackbody (K), spectrum (named, or
     /// lambda/value pairs), or a single float. Converted to linear sRGB; approximations are
     /// reported once with warn(). `illuminant`: true for emission (blackbody normalised as
     /// pbrt does), false for reflectances (clamped to [0,1] where `unbounded` is false).
-    std::optional<Rgb> get_rgb(const std::string &name, bool illuminant, bool unbounded = true) const;
+    /// std::nullopt if absent or texture-typed. Conversions (spectra.h): illuminant spectra
+    /// have luminance 1 (pbrt-v4 lights divide by the photometric value), reflectance spectra
+    /// are lit by D65, unbounded non-illuminant spectra (eta, k) are R/G/B band averages;
+    /// named glasses give their IOR at 550 nm as a grey triple. Not thread-safe (marks used).
+    std::optional<Rgb> get_rgb(const std::string &name, bool illuminant,
+                               bool unbounded = true) const;
     /// Warns (file:line) about every parameter that no lookup used.
     void report_unused(const std::string &what) const;
 };

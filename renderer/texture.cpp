@@ -6,13 +6,13 @@
 #include <OpenImageIO/imageio.h>
 #include <OpenImageIO/texture.h>
 
+#include <unistd.h>
 #include <atomic>
 #include <cctype>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
-#include <unistd.h>
 
 namespace tessera {
 
@@ -77,7 +77,10 @@ class UvMapping final : public Mapping2D {
     UvMapping(float su, float sv, float du, float dv) : su_(su), sv_(sv), du_(du), dv_(dv) {}
     TexCoord2D map(const TextureEvalContext &ctx) const override {
         return {{su_ * ctx.uv.x + du_, sv_ * ctx.uv.y + dv_},
-                su_ * ctx.dudx, su_ * ctx.dudy, sv_ * ctx.dvdx, sv_ * ctx.dvdy};
+                su_ * ctx.dudx,
+                su_ * ctx.dudy,
+                sv_ * ctx.dvdx,
+                sv_ * ctx.dvdy};
     }
     std::string describe() const override {
         return "uv(su=" + fmt(su_) + " sv=" + fmt(sv_) + " du=" + fmt(du_) + " dv=" + fmt(dv_) +
@@ -101,10 +104,10 @@ class SphericalMapping final : public Mapping2D {
         float sqrt_x2y2 = std::sqrt(x2y2);
         float r2 = x2y2 + pt.z * pt.z;
         Vec3f dtdp = x2y2 > 0 ? Vec3f(-pt.y, pt.x, 0) / (2 * kPi * x2y2) : Vec3f();
-        Vec3f dsdp = (sqrt_x2y2 > 0 && r2 > 0)
-                         ? Vec3f(pt.x * pt.z / sqrt_x2y2, pt.y * pt.z / sqrt_x2y2, -sqrt_x2y2) /
-                               (kPi * r2)
-                         : Vec3f();
+        Vec3f dsdp =
+            (sqrt_x2y2 > 0 && r2 > 0)
+                ? Vec3f(pt.x * pt.z / sqrt_x2y2, pt.y * pt.z / sqrt_x2y2, -sqrt_x2y2) / (kPi * r2)
+                : Vec3f();
         Vec3f dpdx = texture_from_render_.vector(ctx.dpdx);
         Vec3f dpdy = texture_from_render_.vector(ctx.dpdy);
         float len = length(pt);
@@ -113,7 +116,10 @@ class SphericalMapping final : public Mapping2D {
         float phi = std::atan2(dir.y, dir.x);
         if (phi < 0) phi += 2 * kPi;
         return {{theta * kInvPi, phi * kInv2Pi},
-                dot(dsdp, dpdx), dot(dsdp, dpdy), dot(dtdp, dpdx), dot(dtdp, dpdy)};
+                dot(dsdp, dpdx),
+                dot(dsdp, dpdy),
+                dot(dtdp, dpdx),
+                dot(dtdp, dpdy)};
     }
     std::string describe() const override { return "spherical"; }
 
@@ -133,7 +139,10 @@ class CylindricalMapping final : public Mapping2D {
         Vec3f dpdx = texture_from_render_.vector(ctx.dpdx);
         Vec3f dpdy = texture_from_render_.vector(ctx.dpdy);
         return {{(kPi + std::atan2(pt.y, pt.x)) * kInv2Pi, pt.z},
-                dot(dsdp, dpdx), dot(dsdp, dpdy), dot(dtdp, dpdx), dot(dtdp, dpdy)};
+                dot(dsdp, dpdx),
+                dot(dsdp, dpdy),
+                dot(dtdp, dpdx),
+                dot(dtdp, dpdy)};
     }
     std::string describe() const override { return "cylindrical"; }
 
@@ -150,7 +159,10 @@ class PlanarMapping final : public Mapping2D {
         Vec3f dpdx = texture_from_render_.vector(ctx.dpdx);
         Vec3f dpdy = texture_from_render_.vector(ctx.dpdy);
         return {{ds_ + dot(vec, vs_), dt_ + dot(vec, vt_)},
-                dot(vs_, dpdx), dot(vs_, dpdy), dot(vt_, dpdx), dot(vt_, dpdy)};
+                dot(vs_, dpdx),
+                dot(vs_, dpdy),
+                dot(vt_, dpdx),
+                dot(vt_, dpdy)};
     }
     std::string describe() const override { return "planar"; }
 
@@ -167,7 +179,8 @@ std::unique_ptr<Mapping2D> make_mapping(const TextureDesc &d) {
     Transform texture_from_render = d.render_from_texture.inverse();
     if (type == "uv")
         return std::make_unique<UvMapping>(ps.get_float("uscale", 1.f), ps.get_float("vscale", 1.f),
-                                           ps.get_float("udelta", 0.f), ps.get_float("vdelta", 0.f));
+                                           ps.get_float("udelta", 0.f),
+                                           ps.get_float("vdelta", 0.f));
     if (type == "spherical") return std::make_unique<SphericalMapping>(texture_from_render);
     if (type == "cylindrical") return std::make_unique<CylindricalMapping>(texture_from_render);
     if (type == "planar")
@@ -359,8 +372,8 @@ struct ImageLookup {
     void lookup(const TexCoord2D &c, int nch, float *out) const {
         // TextureOpt is passed by non-const reference; a copy keeps concurrent calls apart.
         OIIO::TextureOpt o = opt;
-        if (!ts->texture(handle, nullptr, o, c.st.x, 1 - c.st.y, c.dsdx, -c.dtdx, c.dsdy,
-                         -c.dtdy, nch, out))
+        if (!ts->texture(handle, nullptr, o, c.st.x, 1 - c.st.y, c.dsdx, -c.dtdx, c.dsdy, -c.dtdy,
+                         nch, out))
             for (int i = 0; i < nch; ++i) out[i] = 0;
     }
 };
@@ -388,8 +401,7 @@ class FloatImageTexture final : public FloatTexture {
 
 class SpectrumImageTexture final : public SpectrumTexture {
   public:
-    SpectrumImageTexture(std::unique_ptr<Mapping2D> map, ImageLookup img, float scale,
-                         bool invert)
+    SpectrumImageTexture(std::unique_ptr<Mapping2D> map, ImageLookup img, float scale, bool invert)
         : map_(std::move(map)), img_(std::move(img)), scale_(scale), invert_(invert) {}
     Rgb evaluate(const TextureEvalContext &ctx) const override {
         float v[3] = {0, 0, 0};
@@ -553,8 +565,8 @@ PreparedImage prepare_image(const std::string &path, const std::string &encoding
                           std::to_string(counter++) + ".exr");
     if (!OIIO::ImageBufAlgo::make_texture(OIIO::ImageBufAlgo::MakeTxTexture, lin, tmp.string(),
                                           config))
-        throw SceneError(loc, path + ": cannot write the mipmapped texture " + tmp.string() +
-                                  ": " + OIIO::geterror());
+        throw SceneError(loc, path + ": cannot write the mipmapped texture " + tmp.string() + ": " +
+                                  OIIO::geterror());
     fs::rename(tmp, cached, ec);
     if (ec) {
         fs::remove(tmp, ec);
@@ -608,9 +620,11 @@ struct TextureSet::Builder {
         const std::string &cls = d.tex_class;
         const ParamSet &ps = d.params;
         auto make = [&](auto ptr) -> TexPtr<T> { return own(std::move(ptr)); };
-        if (cls == "constant") return make(std::make_unique<ConstantTexture<T>>(value("value", T(1.f))));
+        if (cls == "constant")
+            return make(std::make_unique<ConstantTexture<T>>(value("value", T(1.f))));
         if (cls == "scale")
-            return make(std::make_unique<ScaleTexture<T>>(tex("tex", T(1.f)), float_tex("scale", 1.f)));
+            return make(
+                std::make_unique<ScaleTexture<T>>(tex("tex", T(1.f)), float_tex("scale", 1.f)));
         if (cls == "mix")
             return make(std::make_unique<MixTexture<T>>(tex("tex1", T(0.f)), tex("tex2", T(1.f)),
                                                         float_tex("amount", 0.5f)));
@@ -618,15 +632,14 @@ struct TextureSet::Builder {
             Vec3f dir = ps.get_vector3("dir", {0, 1, 0});
             dir = d.render_from_texture.vector(dir);
             if (!(length(dir) > 0)) throw SceneError(d.loc, "directionmix: \"dir\" is zero");
-            return make(std::make_unique<DirectionMixTexture<T>>(tex("tex1", T(0.f)),
-                                                                 tex("tex2", T(1.f)),
-                                                                 normalize(dir)));
+            return make(std::make_unique<DirectionMixTexture<T>>(
+                tex("tex1", T(0.f)), tex("tex2", T(1.f)), normalize(dir)));
         }
         if (cls == "checkerboard") {
             int dim = ps.get_int("dimension", 2);
             if (dim != 2 && dim != 3)
-                throw SceneError(d.loc, std::to_string(dim) +
-                                            " dimensional checkerboard texture not supported");
+                throw SceneError(
+                    d.loc, std::to_string(dim) + " dimensional checkerboard texture not supported");
             TexPtr<T> t1 = tex("tex1", T(1.f)), t2 = tex("tex2", T(0.f));
             if (dim == 2)
                 return make(std::make_unique<CheckerboardTexture<T>>(make_mapping(d), std::nullopt,
@@ -732,8 +745,8 @@ struct TextureSet::Builder {
 TextureSet::TextureSet(const std::vector<TextureDesc> &descs) {
     for (const TextureDesc &d : descs) {
         bool is_float = d.value_type == "float";
-        bool is_spectrum = d.value_type == "spectrum" || d.value_type == "color" ||
-                           d.value_type == "rgb";
+        bool is_spectrum =
+            d.value_type == "spectrum" || d.value_type == "color" || d.value_type == "rgb";
         if (!is_float && !is_spectrum)
             throw SceneError(d.loc, "texture \"" + d.name + "\": type \"" + d.value_type +
                                         "\" unknown (must be \"float\" or \"spectrum\")");
@@ -771,10 +784,9 @@ const FloatTexture *TextureSet::float_param(const ParamSet &ps, const std::strin
     if (!ref.empty()) {
         if (const FloatTexture *t = get_float(ref)) return t;
         const Param *p = ps.find(name);
-        throw SceneError(p->loc, "float texture \"" + ref + "\" (parameter \"" + name +
-                                     "\") is not defined" +
-                                     (get_spectrum(ref) ? " (a spectrum texture has that name)"
-                                                        : ""));
+        throw SceneError(
+            p->loc, "float texture \"" + ref + "\" (parameter \"" + name + "\") is not defined" +
+                        (get_spectrum(ref) ? " (a spectrum texture has that name)" : ""));
     }
     owned_floats_.push_back(std::make_unique<ConstantTexture<float>>(ps.get_float(name, def)));
     return owned_floats_.back().get();
@@ -787,10 +799,10 @@ const SpectrumTexture *TextureSet::spectrum_param(const ParamSet &ps, const std:
         const SpectrumTexture *t = get_spectrum(ref);
         if (!t) {
             const Param *p = ps.find(name);
-            throw SceneError(p->loc, "spectrum texture \"" + ref + "\" (parameter \"" + name +
-                                         "\") is not defined" +
-                                         (get_float(ref) ? " (a float texture has that name)"
-                                                         : ""));
+            throw SceneError(p->loc,
+                             "spectrum texture \"" + ref + "\" (parameter \"" + name +
+                                 "\") is not defined" +
+                                 (get_float(ref) ? " (a float texture has that name)" : ""));
         }
         if (unbounded) return t;
         auto it = clamped_.find(t);

@@ -30,10 +30,10 @@ namespace tessera {
 /// The derivatives are per pixel step in x and y on the film (ray differentials); zero
 /// derivatives mean "no footprint" (the finest image level, no filtering of checkerboards).
 struct TextureEvalContext {
-    Vec3f p;            ///< render-space position
-    Vec3f dpdx, dpdy;   ///< dp/dx, dp/dy (render space, per pixel)
-    Vec3f n;            ///< surface normal (render space, unit)
-    Vec2f uv;           ///< surface (u, v)
+    Vec3f p;                                       ///< render-space position
+    Vec3f dpdx, dpdy;                              ///< dp/dx, dp/dy (render space, per pixel)
+    Vec3f n;                                       ///< surface normal (render space, unit)
+    Vec2f uv;                                      ///< surface (u, v)
     float dudx = 0, dudy = 0, dvdx = 0, dvdy = 0;  ///< uv derivatives per pixel
 };
 
@@ -74,10 +74,10 @@ float srgb_to_linear(float v);
 /// only, but reads its other 8-bit formats as sRGB regardless) and written once as a tiled,
 /// mipmapped half/float OpenEXR texture (OIIO make_texture, box-filtered levels) in
 /// `<system temp dir>/tessera-texcache/`, keyed by a hash of the source file's bytes and the
-/// encoding, and reused by later runs (the folder may be deleted at any time). Lookups use pbrt's (s, 1 - t) v flip, "wrap"
-/// (repeat | black | clamp), "filter" (pbrt-v4 default "bilinear" = bilinear within one MIP
-/// level; "point", "trilinear", and "ewa" which maps to OIIO's anisotropic filter with
-/// "maxanisotropy", default 8), "scale" and "invert". A float image map reads channel 0
+/// encoding, and reused by later runs (the folder may be deleted at any time). Lookups use pbrt's
+/// (s, 1 - t) v flip, "wrap" (repeat | black | clamp), "filter" (pbrt-v4 default "bilinear" =
+/// bilinear within one MIP level; "point", "trilinear", and "ewa" which maps to OIIO's anisotropic
+/// filter with "maxanisotropy", default 8), "scale" and "invert". A float image map reads channel 0
 /// (pbrt-v4's MIPMap::Texel<Float>); a spectrum image map reads RGB, or grey from 1 channel.
 ///
 /// The OpenImageIO TextureSystem is created only if the scene has an image map, and destroyed

@@ -65,8 +65,8 @@ struct Chi2Options {
     double significance = 0.01;      ///< overall significance level
     int num_tests = 1;               ///< number of tests in the family (Bonferroni correction)
     double min_expected = 5.0;       ///< bins below this expected count are pooled
-    int integration_cells = 3;       ///< per bin and axis, cells refined adaptively
-    double integration_tol = 1e-7;   ///< absolute tolerance per bin of the pdf integral
+    int integration_cells = 2;       ///< per bin and axis, cells refined adaptively
+    double integration_tol = 2e-7;   ///< absolute tolerance per bin of the pdf integral
 };
 
 /// Outcome of chi2_sphere.
@@ -131,32 +131,53 @@ inline double gamma_q_fraction(double a, double x) {
     return std::exp(-x + a * std::log(x) - log_gamma(a)) * h;
 }
 
-/// 3x3-point 2D Simpson rule of f over [x0,x1] x [y0,y1].
-template <typename F>
-double simpson_2d(const F &f, double x0, double x1, double y0, double y1) {
-    double xm = 0.5 * (x0 + x1), ym = 0.5 * (y0 + y1);
-    const double wx[3] = {1, 4, 1};
-    const double xs[3] = {x0, xm, x1}, ys[3] = {y0, ym, y1};
+/// 2D Simpson rule over a cell of size hx * hy from its 3x3 samples v[i][j] (i along x).
+inline double simpson_3x3(const double v[3][3], double hx, double hy) {
+    static const double w[3] = {1, 4, 1};
     double s = 0;
     for (int i = 0; i < 3; ++i)
-        for (int j = 0; j < 3; ++j) s += wx[i] * wx[j] * f(xs[i], ys[j]);
-    return s * (x1 - x0) * (y1 - y0) / 36.0;
+        for (int j = 0; j < 3; ++j) s += w[i] * w[j] * v[i][j];
+    return s * hx * hy / 36.0;
 }
 
-/// Adaptive 2D Simpson: splits a cell in four until the estimates agree within tol.
+/// Adaptive 2D Simpson over [x0,x1] x [y0,y1] given the cell's 3x3 samples `v` and its Simpson
+/// estimate `whole`: splits the cell in four (evaluating only the 16 new points of the 5x5 grid)
+/// until the estimates agree within tol, then applies Richardson's correction.
 template <typename F>
-double adaptive_simpson_2d(const F &f, double x0, double x1, double y0, double y1, double whole,
-                           double tol, int depth) {
-    double xm = 0.5 * (x0 + x1), ym = 0.5 * (y0 + y1);
-    double q[4] = {simpson_2d(f, x0, xm, y0, ym), simpson_2d(f, xm, x1, y0, ym),
-                   simpson_2d(f, x0, xm, ym, y1), simpson_2d(f, xm, x1, ym, y1)};
-    double sum = q[0] + q[1] + q[2] + q[3];
+double adaptive_simpson_2d(const F &f, double x0, double x1, double y0, double y1,
+                           const double v[3][3], double whole, double tol, int depth) {
+    double g[5][5];
+    double hx = (x1 - x0) / 4, hy = (y1 - y0) / 4;
+    for (int i = 0; i < 5; ++i)
+        for (int j = 0; j < 5; ++j)
+            g[i][j] = (i % 2 == 0 && j % 2 == 0) ? v[i / 2][j / 2] : f(x0 + i * hx, y0 + j * hy);
+    double sub[2][2][3][3];
+    double q[2][2], sum = 0;
+    for (int a = 0; a < 2; ++a)
+        for (int b = 0; b < 2; ++b) {
+            for (int i = 0; i < 3; ++i)
+                for (int j = 0; j < 3; ++j) sub[a][b][i][j] = g[2 * a + i][2 * b + j];
+            q[a][b] = simpson_3x3(sub[a][b], 2 * hx, 2 * hy);
+            sum += q[a][b];
+        }
     if (depth <= 0 || std::abs(sum - whole) <= 15.0 * tol) return sum + (sum - whole) / 15.0;
-    double t = 0.25 * tol;
-    return adaptive_simpson_2d(f, x0, xm, y0, ym, q[0], t, depth - 1) +
-           adaptive_simpson_2d(f, xm, x1, y0, ym, q[1], t, depth - 1) +
-           adaptive_simpson_2d(f, x0, xm, ym, y1, q[2], t, depth - 1) +
-           adaptive_simpson_2d(f, xm, x1, ym, y1, q[3], t, depth - 1);
+    double r = 0;
+    for (int a = 0; a < 2; ++a)
+        for (int b = 0; b < 2; ++b)
+            r += adaptive_simpson_2d(f, x0 + 2 * a * hx, x0 + 2 * (a + 1) * hx, y0 + 2 * b * hy,
+                                     y0 + 2 * (b + 1) * hy, sub[a][b], q[a][b], 0.25 * tol,
+                                     depth - 1);
+    return r;
+}
+
+/// Adaptive 2D Simpson integral of f over [x0,x1] x [y0,y1] to absolute tolerance tol.
+template <typename F>
+double integrate_2d(const F &f, double x0, double x1, double y0, double y1, double tol) {
+    double v[3][3];
+    for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j) v[i][j] = f(x0 + i * (x1 - x0) / 2, y0 + j * (y1 - y0) / 2);
+    double whole = simpson_3x3(v, x1 - x0, y1 - y0);
+    return adaptive_simpson_2d(f, x0, x1, y0, y1, v, whole, tol, 7);
 }
 
 }  // namespace detail
@@ -174,7 +195,7 @@ inline double chi2_p_value(double x, int dof) {
 /// Integrates `pdf` over each (theta, phi) bin of the sphere. Returns theta_bins * phi_bins
 /// probabilities, row-major in theta; their sum is the integral of the pdf over the sphere.
 inline std::vector<double> integrate_pdf_bins(const DirectionPdf &pdf, int theta_bins,
-                                              int phi_bins, int cells = 3, double tol = 1e-7) {
+                                              int phi_bins, int cells = 2, double tol = 1e-6) {
     std::vector<double> out(static_cast<size_t>(theta_bins) * phi_bins, 0.0);
     // Integrand in (theta, phi) with the solid-angle Jacobian sin(theta).
     auto f = [&](double theta, double phi) {
@@ -193,9 +214,7 @@ inline std::vector<double> integrate_pdf_bins(const DirectionPdf &pdf, int theta
             for (int a = 0; a < cells; ++a) {
                 for (int b = 0; b < cells; ++b) {
                     double t0 = it * dt + a * cell_t, p0 = ip * dp + b * cell_p;
-                    double whole = detail::simpson_2d(f, t0, t0 + cell_t, p0, p0 + cell_p);
-                    sum += detail::adaptive_simpson_2d(f, t0, t0 + cell_t, p0, p0 + cell_p,
-                                                       whole, cell_tol, 6);
+                    sum += detail::integrate_2d(f, t0, t0 + cell_t, p0, p0 + cell_p, cell_tol);
                 }
             }
             out[static_cast<size_t>(it) * phi_bins + ip] = std::max(0.0, sum);

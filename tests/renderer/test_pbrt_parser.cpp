@@ -357,7 +357,8 @@ TEST_CASE("Include resolves relative to the including file") {
 
 TEST_CASE("bad files give file:line messages") {
     CHECK(error_of("WorldBegin\n\nShape \"sphere\n") == "test.pbrt:3: unterminated string");
-    CHECK(error_of("WorldBegin\nFrobnicate 1 2\n") == "test.pbrt:2: unknown directive 'Frobnicate'");
+    CHECK(error_of("WorldBegin\nFrobnicate 1 2\n") ==
+          "test.pbrt:2: unknown directive 'Frobnicate'");
     CHECK(error_of("WorldBegin\nShape \"trianglemesh\"\n  \"point3 P\" [0 0 0 1 0]\n") ==
           "test.pbrt:3: parameter \"point3 P\" expects a multiple of 3 values, found 5");
     CHECK(error_of("WorldBegin\nShape \"sphere\" \"quaternion q\" [1]\n") ==
@@ -373,6 +374,19 @@ TEST_CASE("bad files give file:line messages") {
           "test.pbrt:2: parameter \"float radius\" expects numbers, found \"one\"");
     CHECK(error_of("WorldBegin\nShape \"sphere\" \"integer n\" [ 1.5 ]\n") ==
           "test.pbrt:2: parameter \"integer n\" has a non-integer value");
+    CHECK(error_of("Translate 1 nan 2\n") ==
+          "test.pbrt:1: Translate expects a number, found 'nan'");
+    CHECK(error_of("WorldBegin\nWorldBegin\n") == "test.pbrt:2: WorldBegin given twice");
+    CHECK(error_of("ActiveTransform Sometimes\n") ==
+          "test.pbrt:1: ActiveTransform expects StartTime, EndTime or All, found 'Sometimes'");
+    CHECK(error_of("WorldBegin\nMakeNamedMaterial \"m\" \"string type\" \"diffuse\"\n"
+                   "MakeNamedMaterial \"m\" \"string type\" \"conductor\"\n") ==
+          "test.pbrt:3: named material \"m\" redefined (first at test.pbrt:2)");
+    CHECK(error_of("WorldBegin\nTexture \"t\" \"float\" \"constant\"\n"
+                   "Texture \"t\" \"float\" \"scale\"\n") ==
+          "test.pbrt:3: float texture \"t\" redefined (first at test.pbrt:2)");
+    CHECK(error_of("WorldBegin\nTexture \"t\" \"rgb\" \"constant\"\n") ==
+          "test.pbrt:2: texture \"t\": unknown type \"rgb\" (expected float or spectrum)");
     CHECK(error_of("Translate 1 2\nWorldBegin\n") ==
           "test.pbrt:2: Translate expects a number, found 'WorldBegin'");
     CHECK(error_of("WorldBegin\nNamedMaterial \"nope\"\nShape \"sphere\"\n") ==
@@ -393,7 +407,8 @@ TEST_CASE("bad files give file:line messages") {
 }
 
 TEST_CASE("unused parameters are reported with file:line") {
-    SceneDesc s = parse("WorldBegin\nShape \"sphere\"\n  \"float radius\" 1\n  \"float bogus\" 2\n");
+    SceneDesc s =
+        parse("WorldBegin\nShape \"sphere\"\n  \"float radius\" 1\n  \"float bogus\" 2\n");
     const ParamSet &p = s.shapes[0].params;
     CHECK(p.get_float("radius", 0) == 1.f);
     int before = warning_count();

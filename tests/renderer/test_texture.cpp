@@ -91,7 +91,9 @@ std::string test_png() {
     return write_image("rgb4x2.png", 4, 2, 3, OIIO::TypeDesc::UINT8, px);
 }
 
-float srgb8(int v) { return srgb_to_linear(v / 255.f); }
+float srgb8(int v) {
+    return srgb_to_linear(v / 255.f);
+}
 
 }  // namespace
 
@@ -105,11 +107,14 @@ TEST_CASE("srgb_to_linear matches the IEC 61966-2-1 curve") {
 TEST_CASE("constant, scale and mix") {
     std::vector<TextureDesc> d = {
         desc("half", "float", "constant", {num("float", "value", {0.5})}),
-        desc("scaled", "float", "scale", {str("texture", "tex", "half"), num("float", "scale", {3})}),
+        desc("scaled", "float", "scale",
+             {str("texture", "tex", "half"), num("float", "scale", {3})}),
         desc("red", "spectrum", "constant", {num("rgb", "value", {0.8, 0.1, 0.2})}),
-        desc("redx2", "spectrum", "scale", {str("texture", "tex", "red"), num("float", "scale", {2})}),
+        desc("redx2", "spectrum", "scale",
+             {str("texture", "tex", "red"), num("float", "scale", {2})}),
         desc("mixf", "float", "mix",
-             {num("float", "tex1", {0.2}), num("float", "tex2", {0.8}), num("float", "amount", {0.25})}),
+             {num("float", "tex1", {0.2}), num("float", "tex2", {0.8}),
+              num("float", "amount", {0.25})}),
         desc("mixs", "spectrum", "mix",
              {str("texture", "tex1", "red"), num("rgb", "tex2", {0, 1, 0}),
               str("texture", "amount", "half")}),
@@ -139,7 +144,8 @@ TEST_CASE("checkerboard 2D: cells, uv mapping, footprint filtering") {
     std::vector<TextureDesc> d = {
         desc("c", "float", "checkerboard", {}),
         desc("c2", "float", "checkerboard",
-             {num("float", "uscale", {2}), num("float", "vscale", {4}), num("float", "udelta", {0.5})}),
+             {num("float", "uscale", {2}), num("float", "vscale", {4}),
+              num("float", "udelta", {0.5})}),
         desc("cs", "spectrum", "checkerboard",
              {num("rgb", "tex1", {1, 0, 0}), num("rgb", "tex2", {0, 0, 1})}),
     };
@@ -245,7 +251,8 @@ TEST_CASE("bilerp and the spherical, cylindrical and planar mappings") {
 TEST_CASE("directionmix follows the normal") {
     std::vector<TextureDesc> d = {
         desc("dm", "float", "directionmix",
-             {num("float", "tex1", {1}), num("float", "tex2", {0}), num("vector3", "dir", {0, 0, 1})}),
+             {num("float", "tex1", {1}), num("float", "tex2", {0}),
+              num("vector3", "dir", {0, 0, 1})}),
     };
     TextureSet set(d);
     TextureEvalContext c = at_uv(0, 0);
@@ -263,8 +270,8 @@ TEST_CASE("material parameter helpers") {
     TextureSet set(d);
     ParamSet ps;
     ps.params = {str("texture", "reflectance", "bright"), num("rgb", "Kd", {0.2, 0.4, 0.6}),
-                 str("texture", "roughness", "rough"), num("float", "eta", {1.33}),
-                 str("texture", "missing", "nope"), str("texture", "wrongkind", "rough")};
+                 str("texture", "roughness", "rough"),    num("float", "eta", {1.33}),
+                 str("texture", "missing", "nope"),       str("texture", "wrongkind", "rough")};
     TextureEvalContext c = at_uv(0.5f, 0.5f);
     // Reflectance from a texture is clamped to [0,1]; the unbounded lookup is not.
     Rgb clamped = set.spectrum_param(ps, "reflectance", std::nullopt, false)->evaluate(c);
@@ -293,9 +300,9 @@ TEST_CASE("bad texture declarations") {
     CHECK_THROWS_AS(TextureSet({desc("x", "float", "scale", {str("texture", "tex", "later")}),
                                 desc("later", "float", "constant", {})}),
                     SceneError);
-    CHECK_THROWS_AS(TextureSet({desc("x", "float", "constant", {}),
-                                desc("x", "float", "constant", {})}),
-                    SceneError);
+    CHECK_THROWS_AS(
+        TextureSet({desc("x", "float", "constant", {}), desc("x", "float", "constant", {})}),
+        SceneError);
     CHECK_THROWS_AS(TextureSet({desc("x", "spectrum", "imagemap",
                                      {str("string", "filename", "/no/such/image.png")})}),
                     SceneError);
@@ -370,8 +377,8 @@ TEST_CASE("imagemap: sRGB linearisation, v flip, wrap modes, scale and invert") 
 }
 
 TEST_CASE("imagemap: float EXR stays linear and unclamped, relative file names") {
-    std::vector<float> px = {0.25f, 2.5f, 0.f, 1.f, 0.125f, 4.f,  // top row
-                             0.5f,  0.5f, 0.5f, 8.f, 0.f,  0.f};  // bottom row
+    std::vector<float> px = {0.25f, 2.5f, 0.f,  1.f, 0.125f, 4.f,   // top row
+                             0.5f,  0.5f, 0.5f, 8.f, 0.f,    0.f};  // bottom row
     std::string exr = write_image("hdr2x2.exr", 2, 2, 3, OIIO::TypeDesc::FLOAT, px);
     TextureDesc t = desc("hdr", "spectrum", "imagemap", {str("string", "filename", "hdr2x2.exr")});
     t.base_dir = temp_dir().string();
@@ -404,8 +411,7 @@ TEST_CASE("imagemap: a large footprint averages a checkerboard image, from many 
         Rgb white = t->evaluate(at_uv(12.f / 64, 1 - 4.f / 64, 1e-4f, 1e-4f));
         CHECK(white.r == doctest::Approx(1.f).epsilon(1e-3));
         CHECK(white.b == doctest::Approx(1.f).epsilon(1e-3));
-        CHECK(t->evaluate(at_uv(4.f / 64, 1 - 4.f / 64, 1e-4f, 1e-4f)).g ==
-              doctest::Approx(0.f));
+        CHECK(t->evaluate(at_uv(4.f / 64, 1 - 4.f / 64, 1e-4f, 1e-4f)).g == doctest::Approx(0.f));
         // Footprint of the whole image: the mean, 1/2 (in linear units).
         Rgb avg = t->evaluate(at_uv(0.5f, 0.5f, 1.f, 1.f));
         CHECK(avg.r == doctest::Approx(0.5f).epsilon(0.02));

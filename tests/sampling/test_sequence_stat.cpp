@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "sampling/sequence.h"
+#include "chi2.h"
 #include "test_helpers.h"
 
 using namespace tessera;
@@ -17,44 +18,13 @@ using namespace tessera::sampling;
 
 namespace {
 
-// Regularised upper incomplete gamma Q(a, x) (series for x < a + 1, Lentz continued fraction
-// otherwise; Press et al., Numerical Recipes, 6.2), for chi-square p-values.
-double gamma_q(double a, double x) {
-    if (x <= 0) return 1.0;
-    double gln = std::lgamma(a);
-    if (x < a + 1) {
-        double sum = 1.0 / a, del = sum, ap = a;
-        for (int n = 0; n < 10000; ++n) {
-            ap += 1;
-            del *= x / ap;
-            sum += del;
-            if (std::abs(del) < std::abs(sum) * 1e-15) break;
-        }
-        return 1.0 - sum * std::exp(-x + a * std::log(x) - gln);
-    }
-    double b = x + 1 - a, c = 1e300, d = 1 / b, h = d;
-    for (int i = 1; i < 10000; ++i) {
-        double an = -i * (i - a);
-        b += 2;
-        d = an * d + b;
-        if (std::abs(d) < 1e-300) d = 1e-300;
-        c = b + an / c;
-        if (std::abs(c) < 1e-300) c = 1e-300;
-        d = 1 / d;
-        double del = d * c;
-        h *= del;
-        if (std::abs(del - 1) < 1e-15) break;
-    }
-    return std::exp(-x + a * std::log(x) - gln) * h;
-}
-
 // Chi-square p-value of observed counts against a uniform expectation (every bin expects
 // total / bins >= 5 here, so no pooling is needed).
 double chi2_uniform_p(const std::vector<double> &counts, double total) {
     double expected = total / double(counts.size());
     double chi2 = 0;
     for (double c : counts) chi2 += (c - expected) * (c - expected) / expected;
-    return gamma_q(0.5 * double(counts.size() - 1), 0.5 * chi2);
+    return tessera::test::chi2_p_value(chi2, int(counts.size()) - 1);
 }
 
 void dump_histogram(const std::string &name, const std::vector<double> &counts) {
@@ -82,12 +52,10 @@ bool is_02_net(const std::vector<Vec2f> &pts, int m) {
 
 }  // namespace
 
-TEST_CASE("gamma_q sanity") {
-    // Chi-square with 2 degrees of freedom: Q(1, x/2) = exp(-x/2).
-    CHECK(gamma_q(1.0, 1.5) == doctest::Approx(std::exp(-1.5)).epsilon(1e-10));
-    CHECK(gamma_q(1.0, 0.2) == doctest::Approx(std::exp(-0.2)).epsilon(1e-10));
-    // Chi-square 99% quantile for 99 degrees of freedom is 134.642.
-    CHECK(gamma_q(49.5, 134.642 / 2) == doctest::Approx(0.01).epsilon(1e-3));
+TEST_CASE("chi-square p-value sanity") {
+    // 2 degrees of freedom: P(X >= x) = exp(-x/2); 99 degrees: the 99% quantile is 134.642.
+    CHECK(tessera::test::chi2_p_value(3.0, 2) == doctest::Approx(std::exp(-1.5)).epsilon(1e-10));
+    CHECK(tessera::test::chi2_p_value(134.642, 99) == doctest::Approx(0.01).epsilon(1e-3));
 }
 
 TEST_CASE("1D values are uniform across pixels (chi-square)") {

@@ -1,0 +1,69 @@
+#!/usr/bin/env bash
+# Tessera's one-step set-up for a fresh Debian 12 machine (run as root, or with sudo available).
+#
+#   scripts/setup.sh render   install dependencies, build (Release), render the example scene
+#   scripts/setup.sh test     install dependencies, build (Release), run the whole test suite
+#   scripts/setup.sh build    install dependencies and build only
+#
+# Environment: BUILD_DIR (default build), JOBS (default: number of cores), CTEST_ARGS (extra
+# arguments for ctest, e.g. "-L unit"), SKIP_APT=1 to skip the package step.
+set -euo pipefail
+
+mode="${1:-render}"
+root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+build="${BUILD_DIR:-$root/build}"
+jobs="${JOBS:-$(nproc)}"
+
+packages=(
+  build-essential cmake pkg-config
+  libembree-dev libtbb-dev
+  libopenimageio-dev openimageio-tools libopenexr-dev libopencolorio-dev
+  libassimp-dev libtinyobjloader-dev nlohmann-json3-dev libcli11-dev
+  doctest-dev libbenchmark-dev
+  python3 python3-numpy python3-matplotlib
+)
+
+install_packages() {
+  if [[ "${SKIP_APT:-0}" == "1" ]]; then return; fi
+  local missing=()
+  for p in "${packages[@]}"; do
+    dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+  done
+  if [[ ${#missing[@]} -eq 0 ]]; then
+    echo "setup: all Debian packages present"
+    return
+  fi
+  echo "setup: installing ${missing[*]}"
+  local sudo=""
+  if [[ $(id -u) -ne 0 ]]; then sudo="sudo"; fi
+  export DEBIAN_FRONTEND=noninteractive
+  $sudo apt-get update -qq
+  $sudo apt-get install -y -qq --no-install-recommends "${missing[@]}"
+}
+
+configure_and_build() {
+  cmake -S "$root" -B "$build" -DCMAKE_BUILD_TYPE=Release ${CMAKE_ARGS:-}
+  cmake --build "$build" -j "$jobs"
+}
+
+install_packages
+configure_and_build
+
+case "$mode" in
+  render)
+    mkdir -p "$root/renders"
+    "$build/tessera" render "$root/examples/cornell-box/scene.pbrt" \
+      -o "$root/renders/cornell-box.exr" --stats "$root/renders/cornell-box.json"
+    echo "setup: wrote renders/cornell-box.exr, renders/cornell-box.png and renders/cornell-box.json"
+    ;;
+  test)
+    cd "$build"
+    # Slow tests are labelled "slow" and run only when asked (CTEST_ARGS="-L slow").
+    ctest --output-on-failure -j "$jobs" -LE slow ${CTEST_ARGS:-}
+    ;;
+  build) ;;
+  *)
+    echo "usage: scripts/setup.sh [render|test|build]" >&2
+    exit 2
+    ;;
+esac
