@@ -19,7 +19,8 @@ PowerLightSampler::PowerLightSampler(std::span<const Light *const> lights)
 
 std::optional<PowerLightSampler::Sampled> PowerLightSampler::sample(float u,
                                                                     float *u_remapped) const {
-    if (lights_.empty()) return std::nullopt;
+    if (lights_.empty())
+        return std::nullopt;
     float pmf = 0;
     int i = table_.sample(u, &pmf, u_remapped);
     return Sampled{lights_[size_t(i)], pmf};

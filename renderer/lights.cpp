@@ -28,7 +28,8 @@ std::string vec_str(Vec3f v) {
 
 /// pbrt-v4's SmoothStep: 0 below a, 1 above b, cubic Hermite in between.
 float smooth_step(float x, float a, float b) {
-    if (a == b) return x < a ? 0.f : 1.f;
+    if (a == b)
+        return x < a ? 0.f : 1.f;
     float t = clamp((x - a) / (b - a), 0.f, 1.f);
     return t * t * (3.f - 2.f * t);
 }
@@ -38,9 +39,11 @@ float smooth_step(float x, float a, float b) {
 float area_to_solid_angle_pdf(float pdf_area, Vec3f p_ref, Vec3f p_light, Vec3f n_light) {
     Vec3f d = p_light - p_ref;
     float d2 = length_squared(d);
-    if (d2 == 0.f) return 0.f;
+    if (d2 == 0.f)
+        return 0.f;
     float cos_l = absdot(n_light, d / std::sqrt(d2));
-    if (cos_l == 0.f) return 0.f;
+    if (cos_l == 0.f)
+        return 0.f;
     float pdf = pdf_area * d2 / cos_l;
     return std::isfinite(pdf) ? pdf : 0.f;
 }
@@ -52,7 +55,8 @@ float srgb_to_linear(float v) {
 
 std::string resolve_path(const std::string &base_dir, const std::string &file) {
     std::filesystem::path p(file);
-    if (p.is_absolute() || base_dir.empty()) return file;
+    if (p.is_absolute() || base_dir.empty())
+        return file;
     return (std::filesystem::path(base_dir) / p).string();
 }
 
@@ -69,8 +73,12 @@ Transform transform_from_frame(const Frame &f) {
 
 }  // namespace
 
-Rgb Light::L(Vec3f, Vec3f, Vec2f, Vec3f) const { return Rgb(0.f); }
-Rgb Light::Le(Vec3f) const { return Rgb(0.f); }
+Rgb Light::L(Vec3f, Vec3f, Vec2f, Vec3f) const {
+    return Rgb(0.f);
+}
+Rgb Light::Le(Vec3f) const {
+    return Rgb(0.f);
+}
 
 // ---------------------------------------------------------------------------------------------
 // PointLight
@@ -78,7 +86,8 @@ Rgb Light::Le(Vec3f) const { return Rgb(0.f); }
 std::optional<LightLiSample> PointLight::sample_li(const LightSampleContext &ctx, Vec2f) const {
     Vec3f d = p_ - ctx.p;
     float d2 = length_squared(d);
-    if (d2 == 0.f) return std::nullopt;
+    if (d2 == 0.f)
+        return std::nullopt;
     LightLiSample s;
     s.wi = d / std::sqrt(d2);
     s.L = I_ / d2;  // inverse-square law (eq. 4.12)
@@ -109,13 +118,15 @@ Rgb SpotLight::intensity(Vec3f w_light) const {
 std::optional<LightLiSample> SpotLight::sample_li(const LightSampleContext &ctx, Vec2f) const {
     Vec3f d = p_ - ctx.p;
     float d2 = length_squared(d);
-    if (d2 == 0.f) return std::nullopt;
+    if (d2 == 0.f)
+        return std::nullopt;
     LightLiSample s;
     s.wi = d / std::sqrt(d2);
     // The falloff is evaluated in light space, as pbrt-v4 does (it matters for scaled lights).
     Vec3f w_light = normalize(render_from_light_.inverse().vector(-s.wi));
     s.L = intensity(w_light) / d2;
-    if (s.L.is_black()) return std::nullopt;
+    if (s.L.is_black())
+        return std::nullopt;
     s.pdf = 1.f;
     s.p_light = p_;
     return s;
@@ -137,8 +148,7 @@ std::string SpotLight::describe() const {
 // ---------------------------------------------------------------------------------------------
 // DistantLight
 
-std::optional<LightLiSample> DistantLight::sample_li(const LightSampleContext &ctx,
-                                                     Vec2f) const {
+std::optional<LightLiSample> DistantLight::sample_li(const LightSampleContext &ctx, Vec2f) const {
     LightLiSample s;
     s.wi = w_;
     s.L = L_;
@@ -181,15 +191,15 @@ namespace {
 // Relative solid angle of pixel row y: sin(theta) at the row centre for lat-long maps, 1 for the
 // equal-area map, whose pixels all cover 4 pi / (w h) sr.
 float row_weight(ImageInfiniteLight::Mapping m, int y, int height) {
-    if (m == ImageInfiniteLight::Mapping::EqualArea) return 1.f;
+    if (m == ImageInfiniteLight::Mapping::EqualArea)
+        return 1.f;
     return std::sin(kPi * (float(y) + 0.5f) / float(height));
 }
 
 }  // namespace
 
-ImageInfiniteLight::ImageInfiniteLight(const Transform &render_from_light,
-                                       std::vector<Rgb> pixels, int width, int height,
-                                       Mapping mapping, float scale)
+ImageInfiniteLight::ImageInfiniteLight(const Transform &render_from_light, std::vector<Rgb> pixels,
+                                       int width, int height, Mapping mapping, float scale)
     : render_from_light_(render_from_light),
       pixels_(std::move(pixels)),
       width_(std::max(width, 1)),
@@ -211,16 +221,19 @@ ImageInfiniteLight::ImageInfiniteLight(const Transform &render_from_light,
 }
 
 Vec3f ImageInfiniteLight::direction_from_uv(Mapping mapping, Vec2f uv) {
-    if (mapping == Mapping::EqualArea) return sampling::equal_area_square_to_sphere(uv);
+    if (mapping == Mapping::EqualArea)
+        return sampling::equal_area_square_to_sphere(uv);
     float theta = uv.y * kPi, phi = uv.x * 2.f * kPi;
     return spherical_direction(std::sin(theta), std::cos(theta), phi);
 }
 
 Vec2f ImageInfiniteLight::uv_from_direction(Mapping mapping, Vec3f w) {
-    if (mapping == Mapping::EqualArea) return sampling::equal_area_sphere_to_square(w);
+    if (mapping == Mapping::EqualArea)
+        return sampling::equal_area_sphere_to_square(w);
     float theta = safe_acos(w.z);
     float phi = std::atan2(w.y, w.x);
-    if (phi < 0.f) phi += 2.f * kPi;
+    if (phi < 0.f)
+        phi += 2.f * kPi;
     return {phi * kInv2Pi, theta * kInvPi};
 }
 
@@ -236,7 +249,8 @@ std::optional<LightLiSample> ImageInfiniteLight::sample_li(const LightSampleCont
                                                            Vec2f u) const {
     float map_pdf = 0.f;
     Vec2f uv = distribution_.sample(u, &map_pdf);
-    if (map_pdf == 0.f) return std::nullopt;
+    if (map_pdf == 0.f)
+        return std::nullopt;
     Vec3f w_light = direction_from_uv(mapping_, uv);
     float pdf;
     if (mapping_ == Mapping::EqualArea) {
@@ -245,7 +259,8 @@ std::optional<LightLiSample> ImageInfiniteLight::sample_li(const LightSampleCont
     } else {
         // d(omega) = 2 pi^2 sin(theta) du dv for the lat-long map.
         float sin_theta = std::sin(uv.y * kPi);
-        if (sin_theta <= 0.f) return std::nullopt;
+        if (sin_theta <= 0.f)
+            return std::nullopt;
         pdf = map_pdf / (2.f * kPi * kPi * sin_theta);
     }
     LightLiSample s;
@@ -260,9 +275,11 @@ float ImageInfiniteLight::pdf_li(const LightSampleContext &, Vec3f wi, Vec3f, Ve
     Vec3f w_light = normalize(render_from_light_.inverse().vector(wi));
     Vec2f uv = uv_from_direction(mapping_, w_light);
     float map_pdf = distribution_.pdf(uv);
-    if (mapping_ == Mapping::EqualArea) return map_pdf / (4.f * kPi);
+    if (mapping_ == Mapping::EqualArea)
+        return map_pdf / (4.f * kPi);
     float sin_theta = safe_sqrt(1.f - w_light.z * w_light.z);
-    if (sin_theta <= 0.f) return 0.f;
+    if (sin_theta <= 0.f)
+        return 0.f;
     return map_pdf / (2.f * kPi * kPi * sin_theta);
 }
 
@@ -302,34 +319,42 @@ TriangleLight::TriangleLight(Vec3f p0, Vec3f p1, Vec3f p2, Vec3f n, Rgb radiance
 
 std::optional<LightLiSample> TriangleLight::sample_li(const LightSampleContext &ctx,
                                                       Vec2f u) const {
-    if (!(area_ > 0.f)) return std::nullopt;
+    if (!(area_ > 0.f))
+        return std::nullopt;
     Vec2f b = sampling::square_to_uniform_triangle(u);
     Vec3f p = p0_ * b.x + p1_ * b.y + p2_ * (1.f - b.x - b.y);
     Vec3f d = p - ctx.p;
     float d2 = length_squared(d);
-    if (d2 == 0.f) return std::nullopt;
+    if (d2 == 0.f)
+        return std::nullopt;
     LightLiSample s;
     s.wi = d / std::sqrt(d2);
     s.pdf = area_to_solid_angle_pdf(1.f / area_, ctx.p, p, n_);
-    if (s.pdf == 0.f) return std::nullopt;
+    if (s.pdf == 0.f)
+        return std::nullopt;
     s.L = L(p, n_, b, -s.wi);
-    if (s.L.is_black()) return std::nullopt;
+    if (s.L.is_black())
+        return std::nullopt;
     s.p_light = p;
     s.n_light = face_forward(n_, -s.wi);
     return s;
 }
 
 float TriangleLight::pdf_li(const LightSampleContext &ctx, Vec3f, Vec3f p_light, Vec3f) const {
-    if (!(area_ > 0.f)) return 0.f;
+    if (!(area_ > 0.f))
+        return 0.f;
     return area_to_solid_angle_pdf(1.f / area_, ctx.p, p_light, n_);
 }
 
 Rgb TriangleLight::L(Vec3f, Vec3f, Vec2f, Vec3f w_out) const {
-    if (!twosided_ && dot(n_, w_out) <= 0.f) return Rgb(0.f);
+    if (!twosided_ && dot(n_, w_out) <= 0.f)
+        return Rgb(0.f);
     return L_;
 }
 
-Rgb TriangleLight::phi() const { return L_ * (kPi * area_ * (twosided_ ? 2.f : 1.f)); }
+Rgb TriangleLight::phi() const {
+    return L_ * (kPi * area_ * (twosided_ ? 2.f : 1.f));
+}
 
 std::string TriangleLight::describe() const {
     return "TriangleLight p0=" + vec_str(p0_) + " p1=" + vec_str(p1_) + " p2=" + vec_str(p2_) +
@@ -373,9 +398,9 @@ Vec3f SphereLight::emitting_normal(Vec3f p) const {
     return reverse_ ? -n : n;
 }
 
-std::optional<LightLiSample> SphereLight::sample_li(const LightSampleContext &ctx,
-                                                    Vec2f u) const {
-    if (!(radius_ > 0.f)) return std::nullopt;
+std::optional<LightLiSample> SphereLight::sample_li(const LightSampleContext &ctx, Vec2f u) const {
+    if (!(radius_ > 0.f))
+        return std::nullopt;
     float dc2 = length_squared(ctx.p - c_);
     Vec3f p, n_out;
     float pdf;
@@ -384,7 +409,8 @@ std::optional<LightLiSample> SphereLight::sample_li(const LightSampleContext &ct
         n_out = sampling::square_to_uniform_sphere(u);
         p = c_ + n_out * radius_;
         pdf = area_to_solid_angle_pdf(1.f / area(), ctx.p, p, n_out);
-        if (pdf == 0.f) return std::nullopt;
+        if (pdf == 0.f)
+            return std::nullopt;
     } else {
         // Outside: uniform in the cone of directions subtended by the sphere (section 6.2.4),
         // then the point where that direction first meets the sphere, found through the angle
@@ -396,8 +422,7 @@ std::optional<LightLiSample> SphereLight::sample_li(const LightSampleContext &ct
             sin2_t = cone.sin2_max * u.x;
             cos_t = std::sqrt(1.f - sin2_t);
         }
-        float cos_alpha = sin2_t / cone.sin_max +
-                          cos_t * safe_sqrt(1.f - sin2_t / cone.sin2_max);
+        float cos_alpha = sin2_t / cone.sin_max + cos_t * safe_sqrt(1.f - sin2_t / cone.sin2_max);
         float sin_alpha = safe_sqrt(1.f - cos_alpha * cos_alpha);
         float phi = u.y * 2.f * kPi;
         Vec3f w = spherical_direction(sin_alpha, cos_alpha, phi);
@@ -408,19 +433,22 @@ std::optional<LightLiSample> SphereLight::sample_li(const LightSampleContext &ct
     }
     Vec3f d = p - ctx.p;
     float d2 = length_squared(d);
-    if (d2 == 0.f) return std::nullopt;
+    if (d2 == 0.f)
+        return std::nullopt;
     LightLiSample s;
     s.wi = d / std::sqrt(d2);
     s.pdf = pdf;
     s.L = L(p, n_out, {}, -s.wi);
-    if (s.L.is_black()) return std::nullopt;
+    if (s.L.is_black())
+        return std::nullopt;
     s.p_light = p;
     s.n_light = face_forward(emitting_normal(p), -s.wi);
     return s;
 }
 
 float SphereLight::pdf_li(const LightSampleContext &ctx, Vec3f, Vec3f p_light, Vec3f) const {
-    if (!(radius_ > 0.f)) return 0.f;
+    if (!(radius_ > 0.f))
+        return 0.f;
     float dc2 = length_squared(ctx.p - c_);
     if (dc2 <= radius_ * radius_)
         return area_to_solid_angle_pdf(1.f / area(), ctx.p, p_light, normalize(p_light - c_));
@@ -430,15 +458,18 @@ float SphereLight::pdf_li(const LightSampleContext &ctx, Vec3f, Vec3f p_light, V
 }
 
 Rgb SphereLight::L(Vec3f p_light, Vec3f, Vec2f, Vec3f w_out) const {
-    if (!twosided_ && dot(emitting_normal(p_light), w_out) <= 0.f) return Rgb(0.f);
+    if (!twosided_ && dot(emitting_normal(p_light), w_out) <= 0.f)
+        return Rgb(0.f);
     return L_;
 }
 
-Rgb SphereLight::phi() const { return L_ * (kPi * area() * (twosided_ ? 2.f : 1.f)); }
+Rgb SphereLight::phi() const {
+    return L_ * (kPi * area() * (twosided_ ? 2.f : 1.f));
+}
 
 std::string SphereLight::describe() const {
-    return "SphereLight c=" + vec_str(c_) + " r=" + std::to_string(radius_) +
-           " L=" + rgb_str(L_) + (reverse_ ? " reversed" : "") + (twosided_ ? " twosided" : "");
+    return "SphereLight c=" + vec_str(c_) + " r=" + std::to_string(radius_) + " L=" + rgb_str(L_) +
+           (reverse_ ? " reversed" : "") + (twosided_ ? " twosided" : "");
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -452,34 +483,42 @@ DiskLight::DiskLight(Vec3f center, Vec3f n, float radius, Rgb radiance, bool two
       twosided_(twosided) {}
 
 std::optional<LightLiSample> DiskLight::sample_li(const LightSampleContext &ctx, Vec2f u) const {
-    if (!(radius_ > 0.f)) return std::nullopt;
+    if (!(radius_ > 0.f))
+        return std::nullopt;
     Vec2f d = sampling::square_to_disk_concentric(u);
     Vec3f p = c_ + frame_.x * (d.x * radius_) + frame_.y * (d.y * radius_);
     Vec3f to = p - ctx.p;
     float d2 = length_squared(to);
-    if (d2 == 0.f) return std::nullopt;
+    if (d2 == 0.f)
+        return std::nullopt;
     LightLiSample s;
     s.wi = to / std::sqrt(d2);
     s.pdf = area_to_solid_angle_pdf(1.f / area(), ctx.p, p, frame_.z);
-    if (s.pdf == 0.f) return std::nullopt;
+    if (s.pdf == 0.f)
+        return std::nullopt;
     s.L = L(p, frame_.z, {}, -s.wi);
-    if (s.L.is_black()) return std::nullopt;
+    if (s.L.is_black())
+        return std::nullopt;
     s.p_light = p;
     s.n_light = face_forward(frame_.z, -s.wi);
     return s;
 }
 
 float DiskLight::pdf_li(const LightSampleContext &ctx, Vec3f, Vec3f p_light, Vec3f) const {
-    if (!(radius_ > 0.f)) return 0.f;
+    if (!(radius_ > 0.f))
+        return 0.f;
     return area_to_solid_angle_pdf(1.f / area(), ctx.p, p_light, frame_.z);
 }
 
 Rgb DiskLight::L(Vec3f, Vec3f, Vec2f, Vec3f w_out) const {
-    if (!twosided_ && dot(frame_.z, w_out) <= 0.f) return Rgb(0.f);
+    if (!twosided_ && dot(frame_.z, w_out) <= 0.f)
+        return Rgb(0.f);
     return L_;
 }
 
-Rgb DiskLight::phi() const { return L_ * (kPi * area() * (twosided_ ? 2.f : 1.f)); }
+Rgb DiskLight::phi() const {
+    return L_ * (kPi * area() * (twosided_ ? 2.f : 1.f));
+}
 
 std::string DiskLight::describe() const {
     return "DiskLight c=" + vec_str(c_) + " n=" + vec_str(frame_.z) +
@@ -492,21 +531,25 @@ std::string DiskLight::describe() const {
 std::vector<Rgb> read_rgb_image(const std::string &path, const FileLoc &loc, int *width,
                                 int *height) {
     auto in = OIIO::ImageInput::open(path);
-    if (!in) throw SceneError(loc, "cannot read image \"" + path + "\": " + OIIO::geterror());
+    if (!in)
+        throw SceneError(loc, "cannot read image \"" + path + "\": " + OIIO::geterror());
     const OIIO::ImageSpec &spec = in->spec();
     const int w = spec.width, h = spec.height, nc = spec.nchannels;
-    if (w <= 0 || h <= 0 || nc <= 0) throw SceneError(loc, "image \"" + path + "\" is empty");
+    if (w <= 0 || h <= 0 || nc <= 0)
+        throw SceneError(loc, "image \"" + path + "\" is empty");
     std::vector<float> buf(size_t(w) * size_t(h) * size_t(nc));
     if (!in->read_image(0, 0, 0, nc, OIIO::TypeDesc::FLOAT, buf.data()))
         throw SceneError(loc, "cannot read image \"" + path + "\": " + in->geterror());
 
     // Channel order by name where the file names them (EXR), else the first three.
     int ch[3] = {0, nc > 1 ? 1 : 0, nc > 2 ? 2 : 0};
-    if (nc == 2) ch[1] = ch[2] = 0;  // grey + alpha
+    if (nc == 2)
+        ch[1] = ch[2] = 0;  // grey + alpha
     const char *names[3] = {"R", "G", "B"};
     for (int c = 0; c < 3; ++c)
         for (int i = 0; i < nc && i < int(spec.channelnames.size()); ++i)
-            if (spec.channelnames[size_t(i)] == names[c]) ch[c] = i;
+            if (spec.channelnames[size_t(i)] == names[c])
+                ch[c] = i;
 
     // Integer formats hold display-encoded values unless the file says linear.
     std::string cs = spec.get_string_attribute("oiio:ColorSpace");
@@ -519,9 +562,10 @@ std::vector<Rgb> read_rgb_image(const std::string &path, const FileLoc &loc, int
         const float *px = &buf[i * size_t(nc)];
         Rgb c(px[ch[0]], px[ch[1]], px[ch[2]]);
         if (!c.is_finite())
-            throw SceneError(loc, "image \"" + path +
-                                      "\" has infinite or NaN pixels and cannot be a light");
-        if (encoded) c = Rgb(srgb_to_linear(c.r), srgb_to_linear(c.g), srgb_to_linear(c.b));
+            throw SceneError(
+                loc, "image \"" + path + "\" has infinite or NaN pixels and cannot be a light");
+        if (encoded)
+            c = Rgb(srgb_to_linear(c.r), srgb_to_linear(c.g), srgb_to_linear(c.b));
         out[i] = c;
     }
     *width = w;
@@ -542,16 +586,19 @@ std::unique_ptr<Light> make_infinite(const LightDesc &desc) {
     float E_v = ps.get_float("illuminance", -1.f);
     if (ps.find("portal")) {
         ps.get_point3s("portal");
-        warn(desc.loc, "infinite light \"portal\" is not supported; the whole environment is "
-                       "sampled instead (same image, more noise indoors)");
+        warn(desc.loc,
+             "infinite light \"portal\" is not supported; the whole environment is "
+             "sampled instead (same image, more noise indoors)");
     }
     if (L && !filename.empty())
-        throw SceneError(desc.loc, "can't specify both emission \"L\" and \"filename\" with an "
-                                   "\"infinite\" light");
+        throw SceneError(desc.loc,
+                         "can't specify both emission \"L\" and \"filename\" with an "
+                         "\"infinite\" light");
     if (filename.empty()) {
         // Constant environment; pbrt-v4 normalises "illuminance" with the cosine-weighted
         // hemisphere integral of a unit radiance, pi.
-        if (E_v > 0.f) scale *= E_v / kPi;
+        if (E_v > 0.f)
+            scale *= E_v / kPi;
         return std::make_unique<UniformInfiniteLight>(L.value_or(Rgb(1.f)) * scale);
     }
 
@@ -563,11 +610,12 @@ std::unique_ptr<Light> make_infinite(const LightDesc &desc) {
         mapping = ImageInfiniteLight::Mapping::EqualArea;
     } else if (w == 2 * h) {
         mapping = ImageInfiniteLight::Mapping::Equirect;
-        warn(desc.loc, "\"" + filename + "\" is a 2:1 image: read as a latitude-longitude map "
-                       "(pbrt-v4 expects square equal-area octahedral maps)");
+        warn(desc.loc, "\"" + filename +
+                           "\" is a 2:1 image: read as a latitude-longitude map "
+                           "(pbrt-v4 expects square equal-area octahedral maps)");
     } else {
-        throw SceneError(desc.loc, "\"" + filename + "\": image resolution (" +
-                                       std::to_string(w) + ", " + std::to_string(h) +
+        throw SceneError(desc.loc, "\"" + filename + "\": image resolution (" + std::to_string(w) +
+                                       ", " + std::to_string(h) +
                                        ") is neither square (equal-area) nor 2:1 (lat-long)");
     }
     if (E_v > 0.f) {
@@ -577,19 +625,21 @@ std::unique_ptr<Light> make_infinite(const LightDesc &desc) {
             for (int x = 0; x < w; ++x) {
                 Vec2f uv{(x + 0.5f) / float(w), (y + 0.5f) / float(h)};
                 Vec3f dir = ImageInfiniteLight::direction_from_uv(mapping, uv);
-                if (dir.z <= 0.f) continue;
-                double d_omega = mapping == ImageInfiniteLight::Mapping::EqualArea
-                                     ? 4.0 * kPi / (double(w) * h)
-                                     : 2.0 * kPi * kPi / (double(w) * h) *
-                                           std::sin(kPi * (y + 0.5f) / h);
-                e += double(pixels[size_t(y) * size_t(w) + size_t(x)].luminance()) * dir.z *
-                     d_omega;
+                if (dir.z <= 0.f)
+                    continue;
+                double d_omega =
+                    mapping == ImageInfiniteLight::Mapping::EqualArea
+                        ? 4.0 * kPi / (double(w) * h)
+                        : 2.0 * kPi * kPi / (double(w) * h) * std::sin(kPi * (y + 0.5f) / h);
+                e +=
+                    double(pixels[size_t(y) * size_t(w) + size_t(x)].luminance()) * dir.z * d_omega;
             }
         // NOTE: pbrt-v4 (lights.cpp, Light::Create) weights each pixel by 2 pi / (w h) instead
         // of the 4 pi / (w h) an equal-area pixel covers, i.e. it computes half the map's
         // illuminance; we keep its factor so scenes render as they do in pbrt-v4.
         double k_e = 0.5 * e;
-        if (k_e > 0) scale *= float(double(E_v) / k_e);
+        if (k_e > 0)
+            scale *= float(double(E_v) / k_e);
     }
     return std::make_unique<ImageInfiniteLight>(desc.render_from_light, std::move(pixels), w, h,
                                                 mapping, scale);
@@ -606,7 +656,8 @@ std::unique_ptr<Light> make_light(const LightDesc &desc) {
         float scale = ps.get_float("scale", 1.f);
         float power = ps.get_float("power", -1.f);
         // pbrt-v4 normalises the spectrum's photometric value, not the RGB: the colour stays.
-        if (power > 0.f) scale *= power / (4.f * kPi);
+        if (power > 0.f)
+            scale *= power / (4.f * kPi);
         Vec3f from = ps.get_point3("from", {0, 0, 0});
         light = std::make_unique<PointLight>(R.point(from), I * scale);
     } else if (desc.type == "spot") {
@@ -634,7 +685,8 @@ std::unique_ptr<Light> make_light(const LightDesc &desc) {
         Vec3f to = ps.get_point3("to", {0, 0, 1});
         // For a distant light, illuminance on a perpendicular patch equals its radiance.
         float E_v = ps.get_float("illuminance", -1.f);
-        if (E_v > 0.f) scale *= E_v;
+        if (E_v > 0.f)
+            scale *= E_v;
         Vec3f w = R.vector(from - to);
         if (!(length_squared(w) > 0.f))
             throw SceneError(desc.loc, "distant light: \"from\" and \"to\" must differ");
@@ -657,8 +709,9 @@ AreaEmission make_area_emission(const ParamSet &params, const FileLoc &loc, floa
     e.twosided = params.get_bool("twosided", false);
     std::string filename = params.get_string("filename", "");
     if (!filename.empty())
-        warn(loc, "AreaLightSource \"diffuse\": image-textured emission \"filename\" is not "
-                  "supported; using \"L\"");
+        warn(loc,
+             "AreaLightSource \"diffuse\": image-textured emission \"filename\" is not "
+             "supported; using \"L\"");
     float power = params.get_float("power", -1.f);
     if (power > 0.f && shape_area > 0.f)
         scale *= power / (kPi * shape_area * (e.twosided ? 2.f : 1.f));

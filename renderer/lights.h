@@ -41,11 +41,11 @@ struct LightSampleContext {
 
 /// One light sample for direct lighting.
 struct LightLiSample {
-    Rgb L;            ///< radiance arriving at the reference point along -wi (before visibility)
-    Vec3f wi;         ///< unit direction from the reference point toward the light
-    float pdf = 0;    ///< solid-angle density of wi (1 for delta lights)
-    Vec3f p_light;    ///< point on the light (for infinite/distant: 2 scene radii away)
-    Vec3f n_light;    ///< emitting-side unit normal at p_light (zero for non-area lights)
+    Rgb L;          ///< radiance arriving at the reference point along -wi (before visibility)
+    Vec3f wi;       ///< unit direction from the reference point toward the light
+    float pdf = 0;  ///< solid-angle density of wi (1 for delta lights)
+    Vec3f p_light;  ///< point on the light (for infinite/distant: 2 scene radii away)
+    Vec3f n_light;  ///< emitting-side unit normal at p_light (zero for non-area lights)
 };
 
 /// Interface of all lights.

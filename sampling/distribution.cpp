@@ -10,30 +10,36 @@ namespace tessera::sampling {
 namespace {
 
 // NaN and infinities would poison every CDF entry after them; treat them as empty cells.
-float sanitize(float v) { return std::isfinite(v) ? std::abs(v) : 0.f; }
+float sanitize(float v) {
+    return std::isfinite(v) ? std::abs(v) : 0.f;
+}
 
 }  // namespace
 
 PiecewiseConstant1D::PiecewiseConstant1D(std::span<const float> f, float min, float max)
     : min_(min), max_(max) {
     func_.resize(std::max<size_t>(f.size(), 1), 0.f);
-    for (size_t i = 0; i < f.size(); ++i) func_[i] = sanitize(f[i]);
+    for (size_t i = 0; i < f.size(); ++i)
+        func_[i] = sanitize(f[i]);
     const size_t n = func_.size();
     const double width = double(max_ - min_) / double(n);
 
     // Accumulate in double: with thousands of cells a float running sum loses the small ones.
     std::vector<double> cdf(n + 1, 0.0);
-    for (size_t i = 0; i < n; ++i) cdf[i + 1] = cdf[i] + double(func_[i]) * width;
+    for (size_t i = 0; i < n; ++i)
+        cdf[i + 1] = cdf[i] + double(func_[i]) * width;
     integral_ = float(cdf[n]);
     if (!(cdf[n] > 0.0)) {
         // All zero: sample uniformly so that callers never see an impossible sample.
         fallback_ = true;
         std::fill(func_.begin(), func_.end(), 1.f);
-        for (size_t i = 0; i <= n; ++i) cdf[i] = double(i) * width;
+        for (size_t i = 0; i <= n; ++i)
+            cdf[i] = double(i) * width;
     }
     sampling_integral_ = float(cdf[n]);
     cdf_.resize(n + 1);
-    for (size_t i = 0; i <= n; ++i) cdf_[i] = float(cdf[i] / cdf[n]);
+    for (size_t i = 0; i <= n; ++i)
+        cdf_[i] = float(cdf[i] / cdf[n]);
     cdf_[n] = 1.f;
 }
 
@@ -51,12 +57,15 @@ int find_cell(const std::vector<float> &cdf, float u) {
 
 float PiecewiseConstant1D::sample_continuous(float u, float *pdf, int *offset) const {
     int o = find_cell(cdf_, u);
-    if (offset) *offset = o;
+    if (offset)
+        *offset = o;
     float du = u - cdf_[o];
     float width = cdf_[o + 1] - cdf_[o];
-    if (width > 0.f) du /= width;
+    if (width > 0.f)
+        du /= width;
     du = clamp(du, 0.f, kOneMinusEpsilon);
-    if (pdf) *pdf = func_[o] / sampling_integral_;
+    if (pdf)
+        *pdf = func_[o] / sampling_integral_;
     float t = (float(o) + du) / float(func_.size());
     float x = lerp(t, min_, max_);
     // Rounding in lerp must not push x onto the (excluded) upper end.
@@ -65,7 +74,8 @@ float PiecewiseConstant1D::sample_continuous(float u, float *pdf, int *offset) c
 
 int PiecewiseConstant1D::sample_discrete(float u, float *pmf_out, float *u_remapped) const {
     int o = find_cell(cdf_, u);
-    if (pmf_out) *pmf_out = pmf(size_t(o));
+    if (pmf_out)
+        *pmf_out = pmf(size_t(o));
     if (u_remapped) {
         float width = cdf_[o + 1] - cdf_[o];
         float r = width > 0.f ? (u - cdf_[o]) / width : 0.f;
@@ -75,7 +85,8 @@ int PiecewiseConstant1D::sample_discrete(float u, float *pmf_out, float *u_remap
 }
 
 float PiecewiseConstant1D::pdf(float x) const {
-    if (!(x >= min_ && x <= max_)) return 0.f;
+    if (!(x >= min_ && x <= max_))
+        return 0.f;
     int n = int(func_.size());
     int i = clamp(int((x - min_) / (max_ - min_) * float(n)), 0, n - 1);
     return func_[size_t(i)] / sampling_integral_;
@@ -110,9 +121,12 @@ Vec2f PiecewiseConstant2D::sample(Vec2f u, float *pdf_out, int *cell_u, int *cel
     int iv = 0, iu = 0;
     float y = marginal_.sample_continuous(u.y, &pdf_v, &iv);
     float x = conditional_[size_t(iv)].sample_continuous(u.x, &pdf_u, &iu);
-    if (pdf_out) *pdf_out = pdf_v * pdf_u;
-    if (cell_u) *cell_u = iu;
-    if (cell_v) *cell_v = iv;
+    if (pdf_out)
+        *pdf_out = pdf_v * pdf_u;
+    if (cell_u)
+        *cell_u = iu;
+    if (cell_v)
+        *cell_v = iv;
     return {x, y};
 }
 
@@ -129,14 +143,17 @@ float PiecewiseConstant2D::pdf(Vec2f p) const {
 
 AliasTable::AliasTable(std::span<const float> weights) {
     const size_t n = weights.size();
-    if (n == 0) return;
+    if (n == 0)
+        return;
     bins_.resize(n);
     double sum = 0;
-    for (float w : weights) sum += double(sanitize(w));
+    for (float w : weights)
+        sum += double(sanitize(w));
     std::vector<double> p(n);
     for (size_t i = 0; i < n; ++i)
         p[i] = sum > 0 ? double(sanitize(weights[i])) / sum : 1.0 / double(n);
-    for (size_t i = 0; i < n; ++i) bins_[i].p = float(p[i]);
+    for (size_t i = 0; i < n; ++i)
+        bins_[i].p = float(p[i]);
 
     // Vose: scaled probabilities below 1 are "small" and get topped up by a "large" alias.
     std::vector<std::pair<size_t, double>> small, large;
@@ -155,12 +172,15 @@ AliasTable::AliasTable(std::span<const float> weights) {
         (rest < 1.0 ? small : large).emplace_back(li, rest);
     }
     // What is left is 1 up to rounding.
-    for (auto &[i, q] : small) bins_[i].q = 1.f, bins_[i].alias = -1;
-    for (auto &[i, q] : large) bins_[i].q = 1.f, bins_[i].alias = -1;
+    for (auto &[i, q] : small)
+        bins_[i].q = 1.f, bins_[i].alias = -1;
+    for (auto &[i, q] : large)
+        bins_[i].q = 1.f, bins_[i].alias = -1;
 }
 
 int AliasTable::sample(float u, float *pmf_out, float *u_remapped) const {
-    if (bins_.empty()) return -1;
+    if (bins_.empty())
+        return -1;
     const size_t n = bins_.size();
     float scaled = u * float(n);
     size_t o = std::min(size_t(scaled), n - 1);
@@ -174,8 +194,10 @@ int AliasTable::sample(float u, float *pmf_out, float *u_remapped) const {
         idx = bins_[o].alias;
         r = (up - bins_[o].q) / (1.f - bins_[o].q);
     }
-    if (pmf_out) *pmf_out = bins_[size_t(idx)].p;
-    if (u_remapped) *u_remapped = clamp(r, 0.f, kOneMinusEpsilon);
+    if (pmf_out)
+        *pmf_out = bins_[size_t(idx)].p;
+    if (u_remapped)
+        *u_remapped = clamp(r, 0.f, kOneMinusEpsilon);
     return idx;
 }
 
@@ -202,7 +224,8 @@ Vec2f equal_area_sphere_to_square(Vec3f d) {
     float a = std::max(x, y), b = std::min(x, y);
     float ratio = a == 0.f ? 0.f : b / a;
     float phi = std::atan(ratio) * (2.f / kPi);  // in [0, 1] over the first octant
-    if (x < y) phi = 1.f - phi;
+    if (x < y)
+        phi = 1.f - phi;
     float v = phi * r;
     float u = r - v;
     if (d.z < 0.f) {

@@ -77,8 +77,7 @@ class PiecewiseConstant2D {
 
     /// Samples a point in [0,1)^2; `pdf` receives the density there (per unit area), `cell`
     /// the (column, row) of the chosen cell.
-    Vec2f sample(Vec2f u, float *pdf = nullptr, int *cell_u = nullptr,
-                 int *cell_v = nullptr) const;
+    Vec2f sample(Vec2f u, float *pdf = nullptr, int *cell_u = nullptr, int *cell_v = nullptr) const;
     /// Density at p in [0,1]^2 (clamped into the grid).
     float pdf(Vec2f p) const;
 
@@ -104,8 +103,8 @@ class AliasTable {
 
   private:
     struct Bin {
-        float q = 0;       // probability of keeping this bin (else take alias)
-        float p = 0;       // normalised pmf of this index
+        float q = 0;  // probability of keeping this bin (else take alias)
+        float p = 0;  // normalised pmf of this index
         int alias = -1;
     };
     std::vector<Bin> bins_;

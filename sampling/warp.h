@@ -2,7 +2,7 @@
 //
 // Each warp maps a canonical sample u in [0,1)^2 to a point on its domain; the matching `*_pdf`
 // gives the density with respect to that domain's measure (area or solid angle).
-// Every warp has a chi-square test in tests/sampling/test_warp.cpp.
+// Every warp has a chi-square test in tests/sampling/test_warp_stat.cpp.
 #pragma once
 
 #include "sampling/vecmath.h"

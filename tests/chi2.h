@@ -225,10 +225,11 @@ inline std::vector<double> integrate_pdf_bins(const DirectionPdf &pdf, int theta
 
 /// Integral of `pdf` over the unit sphere (should be 1 for a normalised non-delta sampler, or the
 /// probability of a non-delta, non-rejected sample for mixtures / lobes that can fail).
+/// `tol` is the absolute tolerance per bin; the total error is typically far below bins * tol.
 inline double integrate_pdf_sphere(const DirectionPdf &pdf, int theta_bins = 30,
-                                   int phi_bins = 60) {
+                                   int phi_bins = 60, double tol = 2e-8) {
     double s = 0;
-    for (double v : integrate_pdf_bins(pdf, theta_bins, phi_bins)) s += v;
+    for (double v : integrate_pdf_bins(pdf, theta_bins, phi_bins, 2, tol)) s += v;
     return s;
 }
 

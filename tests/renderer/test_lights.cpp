@@ -47,7 +47,9 @@ LightDesc light_desc(const std::string &type, std::vector<Param> params,
     return d;
 }
 
-bool near(Vec3f a, Vec3f b, float eps = 1e-5f) { return length(a - b) <= eps; }
+bool near(Vec3f a, Vec3f b, float eps = 1e-5f) {
+    return length(a - b) <= eps;
+}
 
 /// Irradiance at ctx estimated with an n x n stratified grid of light samples.
 double mc_irradiance(const Light &light, const LightSampleContext &ctx, int n) {
@@ -56,7 +58,8 @@ double mc_irradiance(const Light &light, const LightSampleContext &ctx, int n) {
         for (int j = 0; j < n; ++j) {
             Vec2f u{(i + 0.5f) / n, (j + 0.5f) / n};
             auto s = light.sample_li(ctx, u);
-            if (!s || s->pdf == 0) continue;
+            if (!s || s->pdf == 0)
+                continue;
             sum += s->L.g * std::max(0.f, dot(ctx.n, s->wi)) / s->pdf;
         }
     return sum / (double(n) * n);
@@ -83,8 +86,8 @@ TEST_CASE("point light: irradiance I cos / d^2, from + transform, power") {
     CHECK(light->phi().g == doctest::Approx(4.f * kPi * 3.f));
 
     // "power" normalises the spectrum, keeping the RGB ratios (pbrt-v4), then "scale".
-    auto p = make_light(light_desc("point", {num_param("float", "power", {100}),
-                                             num_param("float", "scale", {2})}));
+    auto p = make_light(light_desc(
+        "point", {num_param("float", "power", {100}), num_param("float", "scale", {2})}));
     CHECK(p->phi().r == doctest::Approx(200.f));
     CHECK(p->phi().b == doctest::Approx(200.f));
 }
@@ -111,12 +114,11 @@ TEST_CASE("spot light: smoothstep falloff between the cone edges, pbrt-v4 defaul
     CHECK(mid < 3.f);
 
     // Power: phi equals the requested power; the axis follows from -> to and the transform.
-    auto aimed = make_light(light_desc("spot",
-                                       {num_param("float", "power", {50}),
-                                        num_param("point3", "from", {0, 0, 0}),
-                                        num_param("point3", "to", {1, 0, 0}),
-                                        num_param("float", "coneangle", {20})},
-                                       Transform::translate({0, 2, 0})));
+    auto aimed = make_light(
+        light_desc("spot",
+                   {num_param("float", "power", {50}), num_param("point3", "from", {0, 0, 0}),
+                    num_param("point3", "to", {1, 0, 0}), num_param("float", "coneangle", {20})},
+                   Transform::translate({0, 2, 0})));
     CHECK(aimed->phi().g == doctest::Approx(50.f).epsilon(1e-4));
     auto on_axis = aimed->sample_li({{5, 2, 0}, {}}, {});
     REQUIRE(on_axis);
@@ -126,9 +128,9 @@ TEST_CASE("spot light: smoothstep falloff between the cone edges, pbrt-v4 defaul
 }
 
 TEST_CASE("distant light: arrives from from - to; illuminance; p_light beyond the scene") {
-    auto sun = make_light(light_desc("distant", {num_param("rgb", "L", {1, 2, 3}),
-                                                 num_param("point3", "from", {0, 0, 0}),
-                                                 num_param("point3", "to", {0, 0, 1})}));
+    auto sun = make_light(light_desc(
+        "distant", {num_param("rgb", "L", {1, 2, 3}), num_param("point3", "from", {0, 0, 0}),
+                    num_param("point3", "to", {0, 0, 1})}));
     REQUIRE(sun->type() == LightType::DeltaDirection);
     sun->preprocess({0, 0, 0}, 10.f);
     auto s = sun->sample_li({{1, 1, 1}, {0, 0, -1}}, {});
@@ -222,11 +224,14 @@ TEST_CASE("equal-area octahedral map: round trips and landmarks") {
         for (int j = 0; j < n; ++j) {
             Vec2f u{(i + 0.5f) / n, (j + 0.5f) / n};
             Vec3f w = equal_area_square_to_sphere(u);
-            if (std::abs(length(w) - 1.f) > 1e-5f) ++bad;
+            if (std::abs(length(w) - 1.f) > 1e-5f)
+                ++bad;
             Vec2f back = equal_area_sphere_to_square(w);
-            if (std::abs(back.x - u.x) > 1e-5f || std::abs(back.y - u.y) > 1e-5f) ++bad;
+            if (std::abs(back.x - u.x) > 1e-5f || std::abs(back.y - u.y) > 1e-5f)
+                ++bad;
             Vec3f again = equal_area_square_to_sphere(back);
-            if (!near(again, w, 1e-5f)) ++bad;
+            if (!near(again, w, 1e-5f))
+                ++bad;
         }
     CHECK(bad == 0);
 }
@@ -236,7 +241,8 @@ TEST_CASE("image infinite light: +z is the centre of an equal-area map; transfor
     const int res = 9;
     std::vector<float> px(size_t(res * res * 3), 0.1f);
     auto set = [&](int x, int y, float v) {
-        for (int c = 0; c < 3; ++c) px[size_t((y * res + x) * 3 + c)] = v;
+        for (int c = 0; c < 3; ++c)
+            px[size_t((y * res + x) * 3 + c)] = v;
     };
     set(4, 4, 50.f);
     set(0, 4, 7.f);
@@ -250,8 +256,8 @@ TEST_CASE("image infinite light: +z is the centre of an equal-area map; transfor
         out->close();
     }
     // Rotate -90 degrees about x: light-space +z becomes world +y (the usual y-up setup).
-    auto light = make_light(light_desc("infinite", {str_param("filename", path)},
-                                       Transform::rotate(-90, {1, 0, 0})));
+    auto light = make_light(
+        light_desc("infinite", {str_param("filename", path)}, Transform::rotate(-90, {1, 0, 0})));
     REQUIRE(light->type() == LightType::Infinite);
     CHECK(light->Le({0, 1, 0}).r == doctest::Approx(50.f));
     CHECK(light->Le({-1, 0, 0}).r == doctest::Approx(7.f));
@@ -261,13 +267,14 @@ TEST_CASE("image infinite light: +z is the centre of an equal-area map; transfor
     for (int i = 0; i < 100; ++i) {
         auto s = light->sample_li({{0, 0, 0}, {}}, {(i % 10 + 0.5f) / 10, (i / 10 + 0.5f) / 10});
         REQUIRE(s);
-        if (s->wi.y > 0.9f) ++toward_up;
+        if (s->wi.y > 0.9f)
+            ++toward_up;
     }
     CHECK(toward_up > 70);
 
     // "scale" multiplies; "illuminance" rescales.
-    auto scaled = make_light(light_desc(
-        "infinite", {str_param("filename", path), num_param("float", "scale", {2})}));
+    auto scaled = make_light(
+        light_desc("infinite", {str_param("filename", path), num_param("float", "scale", {2})}));
     CHECK(scaled->Le({0, 0, 1}).r == doctest::Approx(100.f));
 }
 
@@ -301,8 +308,8 @@ TEST_CASE("make_light: unsupported and unknown types, conflicting parameters") {
     CHECK(g.find("goniometric") != std::string::npos);
     CHECK(message(light_desc("projection", {})).find("not supported") != std::string::npos);
     CHECK(message(light_desc("laser", {})).find("scene.pbrt:42") == 0);
-    CHECK(message(light_desc("infinite", {num_param("rgb", "L", {1, 1, 1}),
-                                          str_param("filename", "x.exr")}))
+    CHECK(message(light_desc("infinite",
+                             {num_param("rgb", "L", {1, 1, 1}), str_param("filename", "x.exr")}))
               .find("scene.pbrt:42") == 0);
     CHECK(message(light_desc("infinite", {str_param("filename", "/nonexistent/sky.exr")}))
               .find("scene.pbrt:42") == 0);
@@ -342,7 +349,7 @@ TEST_CASE("make_area_emission: defaults, scale, power per shape, twosided") {
 }
 
 TEST_CASE("PowerLightSampler: pmf proportional to power, sums to 1, O(1) lookup") {
-    PointLight point({0, 0, 0}, Rgb(1.f));                 // phi = 4 pi
+    PointLight point({0, 0, 0}, Rgb(1.f));                   // phi = 4 pi
     SphereLight sphere({0, 0, 5}, 1.f, Rgb(2.f, 2.f, 2.f));  // phi = 2 * pi * 4 pi
     TriangleLight tri({0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}, Rgb(0.f, 4.f, 0.f), true);
     UniformInfiniteLight sky(Rgb(0.01f));
@@ -352,7 +359,8 @@ TEST_CASE("PowerLightSampler: pmf proportional to power, sums to 1, O(1) lookup"
     REQUIRE(sampler.size() == 4);
 
     double total = 0, sum_lum = 0;
-    for (const Light *l : lights) sum_lum += l->phi().luminance();
+    for (const Light *l : lights)
+        sum_lum += l->phi().luminance();
     for (const Light *l : lights) {
         CHECK(sampler.pmf(l) == doctest::Approx(l->phi().luminance() / sum_lum).epsilon(1e-5));
         total += sampler.pmf(l);
@@ -369,7 +377,8 @@ TEST_CASE("PowerLightSampler: pmf proportional to power, sums to 1, O(1) lookup"
         REQUIRE(s);
         CHECK(s->pmf == sampler.pmf(s->light));
         for (size_t k = 0; k < 4; ++k)
-            if (s->light == lights[k]) ++count[k];
+            if (s->light == lights[k])
+                ++count[k];
     }
     for (size_t k = 0; k < 4; ++k)
         CHECK(std::abs(count[k] - sampler.pmf(lights[k]) * n) <= 9.0);

@@ -42,15 +42,19 @@ std::optional<Hit> hit_triangle(Vec3f o, Vec3f w, Vec3f p0, Vec3f p1, Vec3f p2) 
     Vec3f e1 = p1 - p0, e2 = p2 - p0;
     Vec3f pv = cross(w, e2);
     double det = dot(e1, pv);
-    if (std::abs(det) < 1e-12) return std::nullopt;
+    if (std::abs(det) < 1e-12)
+        return std::nullopt;
     Vec3f tv = o - p0;
     double b1 = dot(tv, pv) / det;
-    if (b1 < 0 || b1 > 1) return std::nullopt;
+    if (b1 < 0 || b1 > 1)
+        return std::nullopt;
     Vec3f qv = cross(tv, e1);
     double b2 = dot(w, qv) / det;
-    if (b2 < 0 || b1 + b2 > 1) return std::nullopt;
+    if (b2 < 0 || b1 + b2 > 1)
+        return std::nullopt;
     double t = dot(e2, qv) / det;
-    if (t <= 0) return std::nullopt;
+    if (t <= 0)
+        return std::nullopt;
     return Hit{o + w * float(t), normalize(cross(e1, e2))};
 }
 
@@ -58,22 +62,28 @@ std::optional<Hit> hit_sphere(Vec3f o, Vec3f w, Vec3f c, float r) {
     Vec3f oc = o - c;
     double b = dot(oc, w), cc = double(dot(oc, oc)) - double(r) * r;
     double disc = b * b - cc;
-    if (disc < 0) return std::nullopt;
+    if (disc < 0)
+        return std::nullopt;
     double s = std::sqrt(disc);
     double t = -b - s;
-    if (t <= 0) t = -b + s;
-    if (t <= 0) return std::nullopt;
+    if (t <= 0)
+        t = -b + s;
+    if (t <= 0)
+        return std::nullopt;
     Vec3f p = o + w * float(t);
     return Hit{p, normalize(p - c)};
 }
 
 std::optional<Hit> hit_disk(Vec3f o, Vec3f w, Vec3f c, Vec3f n, float r) {
     double denom = dot(w, n);
-    if (std::abs(denom) < 1e-12) return std::nullopt;
+    if (std::abs(denom) < 1e-12)
+        return std::nullopt;
     double t = dot(c - o, n) / denom;
-    if (t <= 0) return std::nullopt;
+    if (t <= 0)
+        return std::nullopt;
     Vec3f p = o + w * float(t);
-    if (length_squared(p - c) > r * r) return std::nullopt;
+    if (length_squared(p - c) > r * r)
+        return std::nullopt;
     return Hit{p, n};
 }
 
@@ -83,13 +93,16 @@ void check_light(const std::string &name, const Light &light, const LightSampleC
                  const Intersector &intersect, uint64_t seed, Chi2Options opt) {
     auto sampler = [&](Vec2f u, float) -> std::optional<Vec3f> {
         auto s = light.sample_li(ctx, u);
-        if (!s) return std::nullopt;
+        if (!s)
+            return std::nullopt;
         return s->wi;
     };
     auto pdf = [&](Vec3f w) -> double {
-        if (!intersect) return light.pdf_li(ctx, w, {}, {});
+        if (!intersect)
+            return light.pdf_li(ctx, w, {}, {});
         auto h = intersect(ctx.p, w);
-        if (!h) return 0.0;
+        if (!h)
+            return 0.0;
         return light.pdf_li(ctx, w, h->p, h->n);
     };
     opt.seed = seed;
@@ -101,12 +114,15 @@ void check_light(const std::string &name, const Light &light, const LightSampleC
     int mismatched = 0, off_surface = 0;
     for (int i = 0; i < 2000; ++i) {
         auto s = light.sample_li(ctx, rng.uniform2());
-        if (!s) continue;
+        if (!s)
+            continue;
         float q = light.pdf_li(ctx, s->wi, s->p_light, s->n_light);
-        if (!(std::abs(q - s->pdf) <= 1e-3f * s->pdf)) ++mismatched;
+        if (!(std::abs(q - s->pdf) <= 1e-3f * s->pdf))
+            ++mismatched;
         if (intersect) {
             auto h = intersect(ctx.p, s->wi);
-            if (!h || length(h->p - s->p_light) > 1e-3f * (1.f + length(s->p_light))) ++off_surface;
+            if (!h || length(h->p - s->p_light) > 1e-3f * (1.f + length(s->p_light)))
+                ++off_surface;
         }
     }
     CHECK_MESSAGE(mismatched == 0, name << ": pdf_li disagrees with sample_li's pdf");
@@ -154,40 +170,45 @@ LightDesc env_desc(const std::string &path) {
 TEST_CASE("triangle light: sample_li matches pdf_li (chi-square)") {
     Vec3f p0{-1, -1, 2}, p1{1.5f, -0.5f, 2}, p2{0, 1.2f, 2.5f};
     Vec3f n = normalize(cross(p1 - p0, p2 - p0));
-    if (n.z > 0) n = -n;  // emit toward the receiver below
+    if (n.z > 0)
+        n = -n;  // emit toward the receiver below
     TriangleLight light(p0, p1, p2, n, Rgb(1.f), false);
-    check_light("triangle_light", light, {{0.1f, 0.2f, 0}, {0, 0, 1}},
-                [&](Vec3f o, Vec3f w) { return hit_triangle(o, w, p0, p1, p2); }, 31,
-                options(31));
+    check_light(
+        "triangle_light", light, {{0.1f, 0.2f, 0}, {0, 0, 1}},
+        [&](Vec3f o, Vec3f w) { return hit_triangle(o, w, p0, p1, p2); }, 31, options(31));
 }
 
 TEST_CASE("sphere light seen from outside: cone sampling (chi-square)") {
     Vec3f c{0.5f, 0.3f, 3};
     SphereLight light(c, 1.2f, Rgb(1.f));
-    check_light("sphere_outside", light, {{0, 0, 0}, {0, 0, 1}},
-                [&](Vec3f o, Vec3f w) { return hit_sphere(o, w, c, 1.2f); }, 32, options(32));
+    check_light(
+        "sphere_outside", light, {{0, 0, 0}, {0, 0, 1}},
+        [&](Vec3f o, Vec3f w) { return hit_sphere(o, w, c, 1.2f); }, 32, options(32));
     // A small, distant sphere takes the small-angle (Taylor) branch.
     Vec3f c2{0.2f, -0.1f, 30};
     SphereLight tiny(c2, 0.5f, Rgb(1.f));
     Chi2Options o = options(33);
     o.theta_bins = 400;  // theta_max ~ 1 degree
     o.phi_bins = 40;
-    check_light("sphere_small_angle", tiny, {{0, 0, 0}, {}},
-                [&](Vec3f org, Vec3f w) { return hit_sphere(org, w, c2, 0.5f); }, 33, o);
+    check_light(
+        "sphere_small_angle", tiny, {{0, 0, 0}, {}},
+        [&](Vec3f org, Vec3f w) { return hit_sphere(org, w, c2, 0.5f); }, 33, o);
 }
 
 TEST_CASE("sphere light seen from inside: area sampling (chi-square)") {
     Vec3f c{0, 0, 0};
     SphereLight light(c, 2.f, Rgb(1.f), /*reverse_orientation=*/true);
-    check_light("sphere_inside", light, {{0.5f, -0.3f, 0.8f}, {}},
-                [&](Vec3f o, Vec3f w) { return hit_sphere(o, w, c, 2.f); }, 34, options(34));
+    check_light(
+        "sphere_inside", light, {{0.5f, -0.3f, 0.8f}, {}},
+        [&](Vec3f o, Vec3f w) { return hit_sphere(o, w, c, 2.f); }, 34, options(34));
 }
 
 TEST_CASE("disk light: area sampling (chi-square)") {
     Vec3f c{0, 0, 2}, n = normalize(Vec3f(0.3f, 0, -1));
     DiskLight light(c, n, 1.5f, Rgb(1.f));
-    check_light("disk_light", light, {{0.3f, 0, 0}, {0, 0, 1}},
-                [&](Vec3f o, Vec3f w) { return hit_disk(o, w, c, n, 1.5f); }, 35, options(35));
+    check_light(
+        "disk_light", light, {{0.3f, 0, 0}, {0, 0, 1}},
+        [&](Vec3f o, Vec3f w) { return hit_disk(o, w, c, n, 1.5f); }, 35, options(35));
 }
 
 TEST_CASE("uniform infinite light (chi-square)") {
@@ -205,8 +226,8 @@ TEST_CASE("image infinite light, square equal-area and 2:1 lat-long (chi-square)
         // the adaptive quadrature fast while its error stays far below the counts' noise.
         Chi2Options o = options(37 + uint64_t(equirect));
         o.integration_tol = 2e-6;
-        check_light(equirect ? "image_latlong" : "image_equal_area", *light,
-                    {{0, 0, 0}, {0, 0, 1}}, nullptr, 37 + uint64_t(equirect), o);
+        check_light(equirect ? "image_latlong" : "image_equal_area", *light, {{0, 0, 0}, {0, 0, 1}},
+                    nullptr, 37 + uint64_t(equirect), o);
         // The sample's radiance is what Le returns for the same direction (nearest pixel);
         // only directions within rounding of a pixel border may differ.
         tessera::test::Chi2Rng rng(99);
@@ -215,7 +236,8 @@ TEST_CASE("image infinite light, square equal-area and 2:1 lat-long (chi-square)
             auto s = light->sample_li({{0, 0, 0}, {}}, rng.uniform2());
             REQUIRE(s);
             Rgb le = light->Le(s->wi);
-            if (std::abs(le.r - s->L.r) > 1e-4f * (1.f + s->L.r)) ++differ;
+            if (std::abs(le.r - s->L.r) > 1e-4f * (1.f + s->L.r))
+                ++differ;
         }
         CHECK(differ <= 5);
     }
@@ -230,14 +252,16 @@ TEST_CASE("negative control: the chi-square test rejects a plausible but wrong p
     LightSampleContext ctx{{0, 0, 0}, {}};
     auto sampler = [&](Vec2f u, float) -> std::optional<Vec3f> {
         auto s = light.sample_li(ctx, u);
-        if (!s) return std::nullopt;
+        if (!s)
+            return std::nullopt;
         return s->wi;
     };
     // Visible cap area: 2 pi r^2 (1 - r / |c - p|).
     const float cap = 2.f * kPi * r * r * (1.f - r / length(c));
     auto wrong_pdf = [&](Vec3f w) -> double {
         auto h = hit_sphere(ctx.p, w, c, r);
-        if (!h) return 0.0;
+        if (!h)
+            return 0.0;
         return length_squared(h->p) / (absdot(h->n, w) * cap);
     };
     auto res = tessera::test::chi2_sphere("negative_control", sampler, wrong_pdf, options(40));

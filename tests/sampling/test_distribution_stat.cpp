@@ -26,7 +26,8 @@ double chi2_p(const std::vector<double> &obs, const std::vector<double> &exp) {
     int bins = 0;
     for (size_t i = 0; i < obs.size(); ++i) {
         if (exp[i] <= 0) {
-            if (obs[i] > 0) return 0.0;
+            if (obs[i] > 0)
+                return 0.0;
             continue;
         }
         if (exp[i] < 5) {
@@ -76,12 +77,15 @@ TEST_CASE("PiecewiseConstant1D: integral, pdf and continuous sampling match (chi
         float x = d.sample_continuous(rng.uniform(), &pdf, &offset);
         REQUIRE(x >= lo);
         REQUIRE(x < hi);
-        if (std::abs(pdf - d.pdf(x)) > 1e-5f * pdf) ++bad_pdf;
-        if (offset != std::min(4, int((x - lo) / 0.8f))) ++bad_offset;
+        if (std::abs(pdf - d.pdf(x)) > 1e-5f * pdf)
+            ++bad_pdf;
+        if (offset != std::min(4, int((x - lo) / 0.8f)))
+            ++bad_offset;
         int b = std::min(nbins - 1, int((x - lo) / (hi - lo) * nbins));
         obs[size_t(b)] += 1;
     }
-    for (int b = 0; b < nbins; ++b) exp[size_t(b)] = n * f[size_t(b / per_cell)] / 6.5 / per_cell;
+    for (int b = 0; b < nbins; ++b)
+        exp[size_t(b)] = n * f[size_t(b / per_cell)] / 6.5 / per_cell;
     CHECK(bad_pdf == 0);
     CHECK(bad_offset == 0);
     double p = chi2_p(obs, exp);
@@ -111,10 +115,13 @@ TEST_CASE("PiecewiseConstant1D: discrete sampling follows the pmf; remapped u is
         REQUIRE(ur >= 0.f);
         REQUIRE(ur < 1.f);
         obs[size_t(k)] += 1;
-        if (k == 1) r_obs[size_t(std::min(rbins - 1, int(ur * rbins)))] += 1;
+        if (k == 1)
+            r_obs[size_t(std::min(rbins - 1, int(ur * rbins)))] += 1;
     }
-    for (size_t i = 0; i < f.size(); ++i) exp[i] = n * f[i] / 8.0;
-    for (int b = 0; b < rbins; ++b) r_exp[size_t(b)] = obs[1] / rbins;
+    for (size_t i = 0; i < f.size(); ++i)
+        exp[i] = n * f[i] / 8.0;
+    for (int b = 0; b < rbins; ++b)
+        r_exp[size_t(b)] = obs[1] / rbins;
     double p = chi2_p(obs, exp), pr = chi2_p(r_obs, r_exp);
     CHECK_MESSAGE(p > kAlpha, "pmf p-value " << p);
     CHECK_MESSAGE(pr > kAlpha, "remapped-u p-value " << pr);
@@ -162,16 +169,20 @@ TEST_CASE("PiecewiseConstant2D: pdf integrates to 1 and matches sampling (chi-sq
     for (int v = 0; v < nv; ++v)
         for (int u = 0; u < nu; ++u) {
             float val = 0.1f + 3.f * gen.uniform();
-            if (v == 2) val = 0.f;           // an empty row
-            if (u == 5) val = 0.f;           // an empty column
-            if (u == 1 && v == 4) val = 40.f;  // a bright spot
+            if (v == 2)
+                val = 0.f;  // an empty row
+            if (u == 5)
+                val = 0.f;  // an empty column
+            if (u == 1 && v == 4)
+                val = 40.f;  // a bright spot
             f[size_t(v * nu + u)] = val;
         }
     PiecewiseConstant2D d(f, nu, nv);
     CHECK(d.nu() == nu);
     CHECK(d.nv() == nv);
     double sum_f = 0;
-    for (float x : f) sum_f += x;
+    for (float x : f)
+        sum_f += x;
     CHECK(d.integral() == doctest::Approx(sum_f / (nu * nv)).epsilon(1e-5));
 
     double total = 0;
@@ -196,7 +207,8 @@ TEST_CASE("PiecewiseConstant2D: pdf integrates to 1 and matches sampling (chi-sq
         REQUIRE(p.x < 1.f);
         REQUIRE(p.y >= 0.f);
         REQUIRE(p.y < 1.f);
-        if (std::abs(pdf - d.pdf(p)) > 1e-4f * pdf) ++bad_pdf;
+        if (std::abs(pdf - d.pdf(p)) > 1e-4f * pdf)
+            ++bad_pdf;
         int x = std::min(bu - 1, int(p.x * bu)), y = std::min(bv - 1, int(p.y * bv));
         obs[size_t(y * bu + x)] += 1;
     }
@@ -265,7 +277,8 @@ TEST_CASE("AliasTable: frequencies follow the weights (chi-square); remapped u i
         obs[size_t(k)] += 1;
         r_obs[size_t(std::min(rbins - 1, int(ur * rbins)))] += 1;
     }
-    for (size_t i = 0; i < w.size(); ++i) exp[i] = n * w[i] / sum_w;
+    for (size_t i = 0; i < w.size(); ++i)
+        exp[i] = n * w[i] / sum_w;
     double p = chi2_p(obs, exp), pr = chi2_p(r_obs, r_exp);
     CHECK_MESSAGE(p > kAlpha, "p-value " << p);
     CHECK_MESSAGE(pr > kAlpha, "remapped-u p-value " << pr);
@@ -276,10 +289,13 @@ TEST_CASE("AliasTable: frequencies follow the weights (chi-square); remapped u i
 TEST_CASE("AliasTable: all-zero weights, one entry, empty table") {
     std::vector<float> zeros(4, 0.f);
     AliasTable z(zeros);
-    for (size_t i = 0; i < 4; ++i) CHECK(z.pmf(i) == doctest::Approx(0.25f));
+    for (size_t i = 0; i < 4; ++i)
+        CHECK(z.pmf(i) == doctest::Approx(0.25f));
     std::vector<int> hits(4, 0);
-    for (int i = 0; i < 400; ++i) ++hits[size_t(z.sample((i + 0.5f) / 400.f))];
-    for (int h : hits) CHECK(h == 100);  // stratified u: exactly a quarter each
+    for (int i = 0; i < 400; ++i)
+        ++hits[size_t(z.sample((i + 0.5f) / 400.f))];
+    for (int h : hits)
+        CHECK(h == 100);  // stratified u: exactly a quarter each
 
     std::vector<float> one = {3.f};
     AliasTable o(one);

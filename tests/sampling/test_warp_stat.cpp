@@ -37,7 +37,8 @@ double chi2_p(const std::vector<double> &obs, const std::vector<double> &exp) {
     int bins = 0;
     for (size_t i = 0; i < obs.size(); ++i) {
         if (exp[i] <= 0) {
-            if (obs[i] > 0) return 0.0;
+            if (obs[i] > 0)
+                return 0.0;
             continue;
         }
         if (exp[i] < 5) {
@@ -82,7 +83,8 @@ TEST_CASE("warp: uniform sphere and hemisphere") {
 TEST_CASE("warp: uniform cone, wide and narrow") {
     for (float cos_max : {0.3f, 0.985f}) {
         Chi2Options o = options(cos_max < 0.5f ? 24 : 25);
-        if (cos_max > 0.9f) o.theta_bins = 180;  // 1-degree rows: the cone spans ~10 of them
+        if (cos_max > 0.9f)
+            o.theta_bins = 180;  // 1-degree rows: the cone spans ~10 of them
         auto r = tessera::test::chi2_sphere(
             cos_max < 0.5f ? "cone_wide" : "cone_narrow",
             [&](Vec2f u, float) -> std::optional<Vec3f> {
@@ -112,7 +114,8 @@ TEST_CASE("warp: concentric disk is uniform by area") {
         float r2 = d.x * d.x + d.y * d.y;
         REQUIRE(r2 <= 1.f + 1e-6f);
         float phi = std::atan2(d.y, d.x);
-        if (phi < 0) phi += 2 * kPi;
+        if (phi < 0)
+            phi += 2 * kPi;
         int ir = std::min(nr - 1, int(r2 * nr));
         int ip = std::min(nphi - 1, int(phi / (2 * kPi) * nphi));
         obs[size_t(ir * nphi + ip)] += 1;
