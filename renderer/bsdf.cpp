@@ -12,12 +12,15 @@ namespace {
 /// Normalises `v`, or returns nullopt for a zero / non-finite vector.
 std::optional<Vec3f> safe_normalize(Vec3f v) {
     float l2 = length_squared(v);
-    if (!(l2 > 0.f) || !std::isfinite(l2)) return std::nullopt;
+    if (!(l2 > 0.f) || !std::isfinite(l2))
+        return std::nullopt;
     return v / std::sqrt(l2);
 }
 
 /// Mirror direction about the local normal (the specular reflection of wo).
-Vec3f mirror_z(Vec3f wo) { return {-wo.x, -wo.y, wo.z}; }
+Vec3f mirror_z(Vec3f wo) {
+    return {-wo.x, -wo.y, wo.z};
+}
 
 }  // namespace
 
@@ -25,16 +28,20 @@ Vec3f mirror_z(Vec3f wo) { return {-wo.x, -wo.y, wo.z}; }
 // DiffuseBxdf
 
 Rgb DiffuseBxdf::f(Vec3f wo, Vec3f wi, TransportMode) const {
-    if (!same_hemisphere(wo, wi)) return {};
+    if (!same_hemisphere(wo, wi))
+        return {};
     return reflectance * kInvPi;
 }
 
 std::optional<BsdfSample> DiffuseBxdf::sample_f(Vec3f wo, float, Vec2f u, TransportMode) const {
-    if (wo.z == 0.f) return std::nullopt;
+    if (wo.z == 0.f)
+        return std::nullopt;
     Vec3f wi = sampling::square_to_cosine_hemisphere(u);
-    if (wo.z < 0.f) wi.z = -wi.z;
+    if (wo.z < 0.f)
+        wi.z = -wi.z;
     float pdf = sampling::cosine_hemisphere_pdf(std::abs(wi.z));
-    if (!(pdf > 0.f)) return std::nullopt;
+    if (!(pdf > 0.f))
+        return std::nullopt;
     BsdfSample s;
     s.f = reflectance * kInvPi;
     s.wi = wi;
@@ -44,7 +51,8 @@ std::optional<BsdfSample> DiffuseBxdf::sample_f(Vec3f wo, float, Vec2f u, Transp
 }
 
 float DiffuseBxdf::pdf(Vec3f wo, Vec3f wi, TransportMode) const {
-    if (!same_hemisphere(wo, wi)) return 0.f;
+    if (!same_hemisphere(wo, wi))
+        return 0.f;
     return sampling::cosine_hemisphere_pdf(std::abs(wi.z));
 }
 
@@ -56,17 +64,21 @@ uint8_t DiffuseBxdf::flags() const {
 // ConductorBxdf
 
 Rgb ConductorBxdf::f(Vec3f wo, Vec3f wi, TransportMode) const {
-    if (!same_hemisphere(wo, wi) || distrib.effectively_smooth()) return {};
+    if (!same_hemisphere(wo, wi) || distrib.effectively_smooth())
+        return {};
     float cos_o = std::abs(wo.z), cos_i = std::abs(wi.z);
-    if (cos_o == 0.f || cos_i == 0.f) return {};
+    if (cos_o == 0.f || cos_i == 0.f)
+        return {};
     std::optional<Vec3f> wm = safe_normalize(wi + wo);
-    if (!wm) return {};
+    if (!wm)
+        return {};
     Rgb fr = fr_complex(absdot(wo, *wm), eta, k);
     return fr * (distrib.d(*wm) * distrib.g(wo, wi) / (4.f * cos_o * cos_i));
 }
 
 std::optional<BsdfSample> ConductorBxdf::sample_f(Vec3f wo, float, Vec2f u, TransportMode) const {
-    if (wo.z == 0.f) return std::nullopt;
+    if (wo.z == 0.f)
+        return std::nullopt;
     BsdfSample s;
     if (distrib.effectively_smooth()) {
         // Perfect mirror: the delta lobe's weight is the Fresnel reflectance.
@@ -78,13 +90,16 @@ std::optional<BsdfSample> ConductorBxdf::sample_f(Vec3f wo, float, Vec2f u, Tran
     }
     Vec3f wm = distrib.sample_wm(wo, u);
     Vec3f wi = reflect(wo, wm);
-    if (!same_hemisphere(wo, wi)) return std::nullopt;
+    if (!same_hemisphere(wo, wi))
+        return std::nullopt;
     float wo_dot_wm = absdot(wo, wm);
-    if (wo_dot_wm == 0.f) return std::nullopt;
+    if (wo_dot_wm == 0.f)
+        return std::nullopt;
     // Jacobian of the reflection map: dwm/dwi = 1 / (4 |wo . wm|) (PBRT eq. 9.28).
     float pdf = distrib.pdf(wo, wm) / (4.f * wo_dot_wm);
     float cos_o = std::abs(wo.z), cos_i = std::abs(wi.z);
-    if (cos_i == 0.f || !(pdf > 0.f)) return std::nullopt;
+    if (cos_i == 0.f || !(pdf > 0.f))
+        return std::nullopt;
     Rgb fr = fr_complex(wo_dot_wm, eta, k);
     s.f = fr * (distrib.d(wm) * distrib.g(wo, wi) / (4.f * cos_o * cos_i));
     s.wi = wi;
@@ -94,13 +109,16 @@ std::optional<BsdfSample> ConductorBxdf::sample_f(Vec3f wo, float, Vec2f u, Tran
 }
 
 float ConductorBxdf::pdf(Vec3f wo, Vec3f wi, TransportMode) const {
-    if (!same_hemisphere(wo, wi) || distrib.effectively_smooth()) return 0.f;
+    if (!same_hemisphere(wo, wi) || distrib.effectively_smooth())
+        return 0.f;
     std::optional<Vec3f> wm = safe_normalize(wo + wi);
-    if (!wm) return 0.f;
+    if (!wm)
+        return 0.f;
     // Visible normals live in the +z hemisphere; orient the half vector accordingly.
     Vec3f m = face_forward(*wm, Vec3f(0, 0, 1));
     float wo_dot_wm = absdot(wo, m);
-    if (wo_dot_wm == 0.f) return 0.f;
+    if (wo_dot_wm == 0.f)
+        return 0.f;
     return distrib.pdf(wo, m) / (4.f * wo_dot_wm);
 }
 
@@ -133,15 +151,19 @@ namespace {
 bool dielectric_half_vector(Vec3f wo, Vec3f wi, float eta, Vec3f *wm, float *etap,
                             bool *is_reflection) {
     float cos_o = wo.z, cos_i = wi.z;
-    if (cos_o == 0.f || cos_i == 0.f) return false;
+    if (cos_o == 0.f || cos_i == 0.f)
+        return false;
     bool refl = cos_o * cos_i > 0.f;
     float ep = 1.f;
-    if (!refl) ep = cos_o > 0.f ? eta : 1.f / eta;
+    if (!refl)
+        ep = cos_o > 0.f ? eta : 1.f / eta;
     std::optional<Vec3f> m = safe_normalize(wi * ep + wo);
-    if (!m) return false;
+    if (!m)
+        return false;
     Vec3f n = face_forward(*m, Vec3f(0, 0, 1));
     // Microfacets that face away from wo or wi cannot connect them.
-    if (dot(n, wi) * cos_i < 0.f || dot(n, wo) * cos_o < 0.f) return false;
+    if (dot(n, wi) * cos_i < 0.f || dot(n, wo) * cos_o < 0.f)
+        return false;
     *wm = n;
     *etap = ep;
     *is_reflection = refl;
@@ -151,11 +173,13 @@ bool dielectric_half_vector(Vec3f wo, Vec3f wi, float eta, Vec3f *wm, float *eta
 }  // namespace
 
 Rgb DielectricBxdf::f(Vec3f wo, Vec3f wi, TransportMode mode) const {
-    if (eta == 1.f || distrib.effectively_smooth()) return {};
+    if (eta == 1.f || distrib.effectively_smooth())
+        return {};
     Vec3f wm;
     float etap;
     bool refl;
-    if (!dielectric_half_vector(wo, wi, eta, &wm, &etap, &refl)) return {};
+    if (!dielectric_half_vector(wo, wi, eta, &wm, &etap, &refl))
+        return {};
     float fr = fr_dielectric(dot(wo, wm), eta);
     float cos_o = wo.z, cos_i = wi.z;
     if (refl) {
@@ -163,28 +187,34 @@ Rgb DielectricBxdf::f(Vec3f wo, Vec3f wi, TransportMode mode) const {
     }
     // Transmission (Walter et al. 2007, eq. 21), with the generalized half-vector Jacobian.
     float denom = sqr(dot(wi, wm) + dot(wo, wm) / etap) * cos_i * cos_o;
-    if (denom == 0.f) return {};
+    if (denom == 0.f)
+        return {};
     float ft = distrib.d(wm) * (1.f - fr) * distrib.g(wo, wi) *
                std::abs(dot(wi, wm) * dot(wo, wm) / denom);
-    if (mode == TransportMode::Radiance) ft /= sqr(etap);
+    if (mode == TransportMode::Radiance)
+        ft /= sqr(etap);
     return std::isfinite(ft) ? Rgb(ft) : Rgb();
 }
 
 float DielectricBxdf::pdf(Vec3f wo, Vec3f wi, TransportMode) const {
-    if (eta == 1.f || distrib.effectively_smooth()) return 0.f;
+    if (eta == 1.f || distrib.effectively_smooth())
+        return 0.f;
     Vec3f wm;
     float etap;
     bool refl;
-    if (!dielectric_half_vector(wo, wi, eta, &wm, &etap, &refl)) return 0.f;
+    if (!dielectric_half_vector(wo, wi, eta, &wm, &etap, &refl))
+        return 0.f;
     float r = fr_dielectric(dot(wo, wm), eta), t = 1.f - r;
-    if (!(r + t > 0.f)) return 0.f;
+    if (!(r + t > 0.f))
+        return 0.f;
     float pdf;
     if (refl) {
         pdf = distrib.pdf(wo, wm) / (4.f * absdot(wo, wm)) * r / (r + t);
     } else {
         // Jacobian dwm/dwi of the refraction half vector (Walter et al. 2007, eq. 17).
         float denom = sqr(dot(wi, wm) + dot(wo, wm) / etap);
-        if (denom == 0.f) return 0.f;
+        if (denom == 0.f)
+            return 0.f;
         float dwm_dwi = absdot(wi, wm) / denom;
         pdf = distrib.pdf(wo, wm) * dwm_dwi * t / (r + t);
     }
@@ -193,7 +223,8 @@ float DielectricBxdf::pdf(Vec3f wo, Vec3f wi, TransportMode) const {
 
 std::optional<BsdfSample> DielectricBxdf::sample_f(Vec3f wo, float uc, Vec2f u,
                                                    TransportMode mode) const {
-    if (wo.z == 0.f) return std::nullopt;
+    if (wo.z == 0.f)
+        return std::nullopt;
     BsdfSample s;
     if (eta == 1.f || distrib.effectively_smooth()) {
         // Specular interface: choose reflection with probability R (= R / (R + T)).
@@ -207,9 +238,11 @@ std::optional<BsdfSample> DielectricBxdf::sample_f(Vec3f wo, float uc, Vec2f u,
         }
         float etap;
         Vec3f wi;
-        if (!refract(wo, Vec3f(0, 0, 1), eta, &etap, &wi) || wi.z == 0.f) return std::nullopt;
+        if (!refract(wo, Vec3f(0, 0, 1), eta, &etap, &wi) || wi.z == 0.f)
+            return std::nullopt;
         float ft = t / std::abs(wi.z);
-        if (mode == TransportMode::Radiance) ft /= sqr(etap);
+        if (mode == TransportMode::Radiance)
+            ft /= sqr(etap);
         s.f = Rgb(ft);
         s.wi = wi;
         s.pdf = t;
@@ -224,10 +257,12 @@ std::optional<BsdfSample> DielectricBxdf::sample_f(Vec3f wo, float uc, Vec2f u,
     float cos_o = wo.z;
     if (uc < r / (r + t)) {
         Vec3f wi = reflect(wo, wm);
-        if (!same_hemisphere(wo, wi)) return std::nullopt;
+        if (!same_hemisphere(wo, wi))
+            return std::nullopt;
         float pdf = distrib.pdf(wo, wm) / (4.f * absdot(wo, wm)) * r / (r + t);
         float fr = distrib.d(wm) * distrib.g(wo, wi) * r / std::abs(4.f * wi.z * cos_o);
-        if (!(pdf > 0.f) || !std::isfinite(fr) || !std::isfinite(pdf)) return std::nullopt;
+        if (!(pdf > 0.f) || !std::isfinite(fr) || !std::isfinite(pdf))
+            return std::nullopt;
         s.f = Rgb(fr);
         s.wi = wi;
         s.pdf = pdf;
@@ -236,16 +271,21 @@ std::optional<BsdfSample> DielectricBxdf::sample_f(Vec3f wo, float uc, Vec2f u,
     }
     float etap;
     Vec3f wi;
-    if (!refract(wo, wm, eta, &etap, &wi)) return std::nullopt;  // total internal reflection
-    if (same_hemisphere(wo, wi) || wi.z == 0.f) return std::nullopt;
+    if (!refract(wo, wm, eta, &etap, &wi))
+        return std::nullopt;  // total internal reflection
+    if (same_hemisphere(wo, wi) || wi.z == 0.f)
+        return std::nullopt;
     float denom = sqr(dot(wi, wm) + dot(wo, wm) / etap);
-    if (denom == 0.f) return std::nullopt;
+    if (denom == 0.f)
+        return std::nullopt;
     float dwm_dwi = absdot(wi, wm) / denom;
     float pdf = distrib.pdf(wo, wm) * dwm_dwi * t / (r + t);
     float ft = t * distrib.d(wm) * distrib.g(wo, wi) *
                std::abs(dot(wi, wm) * dot(wo, wm) / (wi.z * cos_o * denom));
-    if (mode == TransportMode::Radiance) ft /= sqr(etap);
-    if (!(pdf > 0.f) || !std::isfinite(ft) || !std::isfinite(pdf)) return std::nullopt;
+    if (mode == TransportMode::Radiance)
+        ft /= sqr(etap);
+    if (!(pdf > 0.f) || !std::isfinite(ft) || !std::isfinite(pdf))
+        return std::nullopt;
     s.f = Rgb(ft);
     s.wi = wi;
     s.pdf = pdf;
@@ -273,11 +313,14 @@ float fresnel_diffuse_reflectance(float eta) {
     };
     static const std::array<float, kEntries> table = [&] {
         std::array<float, kEntries> t{};
-        for (int i = 0; i < kEntries; ++i) t[i] = integrate(1.f + (kMax - 1.f) * i / (kEntries - 1));
+        for (int i = 0; i < kEntries; ++i)
+            t[i] = integrate(1.f + (kMax - 1.f) * i / (kEntries - 1));
         return t;
     }();
-    if (!(eta > 1.f)) return 0.f;
-    if (eta >= kMax) return integrate(eta);
+    if (!(eta > 1.f))
+        return 0.f;
+    if (eta >= kMax)
+        return integrate(eta);
     float x = (eta - 1.f) / (kMax - 1.f) * (kEntries - 1);
     int i = std::min(static_cast<int>(x), kEntries - 2);
     float t = x - i;
@@ -293,15 +336,18 @@ CoatedDiffuseBxdf::CoatedDiffuseBxdf(Rgb reflectance_, float eta_, TrowbridgeRei
       albedo(albedo_),
       g(g_) {
     // A coat "less dense" than the outside is unphysical for a coating; use its reciprocal.
-    if (!(eta > 0.f) || !std::isfinite(eta)) eta = 1.f;
-    if (eta < 1.f) eta = 1.f / eta;
+    if (!(eta > 0.f) || !std::isfinite(eta))
+        eta = 1.f;
+    if (eta < 1.f)
+        eta = 1.f / eta;
     float fdr_ext = fresnel_diffuse_reflectance(eta);
     fdr_int = 1.f - (1.f - fdr_ext) / (eta * eta);
 }
 
 uint8_t CoatedDiffuseBxdf::flags() const {
     uint8_t f = kBxdfReflection | kBxdfDiffuse;
-    if (eta != 1.f) f |= distrib.effectively_smooth() ? kBxdfSpecular : kBxdfGlossy;
+    if (eta != 1.f)
+        f |= distrib.effectively_smooth() ? kBxdfSpecular : kBxdfGlossy;
     return f;
 }
 
@@ -330,34 +376,42 @@ Rgb CoatedDiffuseBxdf::base(Vec3f wo, Vec3f wi) const {
 }
 
 Rgb CoatedDiffuseBxdf::coat_f(Vec3f wo, Vec3f wi) const {
-    if (eta == 1.f || distrib.effectively_smooth()) return {};
+    if (eta == 1.f || distrib.effectively_smooth())
+        return {};
     std::optional<Vec3f> wm = safe_normalize(wo + wi);
-    if (!wm) return {};
+    if (!wm)
+        return {};
     float fr = fr_dielectric(dot(wo, *wm), eta);
     return Rgb(distrib.d(*wm) * distrib.g(wo, wi) * fr / (4.f * wo.z * wi.z));
 }
 
 float CoatedDiffuseBxdf::coat_pdf(Vec3f wo, Vec3f wi) const {
-    if (eta == 1.f || distrib.effectively_smooth()) return 0.f;
+    if (eta == 1.f || distrib.effectively_smooth())
+        return 0.f;
     std::optional<Vec3f> wm = safe_normalize(wo + wi);
-    if (!wm) return 0.f;
+    if (!wm)
+        return 0.f;
     float wo_dot_wm = dot(wo, *wm);
-    if (!(wo_dot_wm > 0.f)) return 0.f;
+    if (!(wo_dot_wm > 0.f))
+        return 0.f;
     return distrib.pdf(wo, *wm) / (4.f * wo_dot_wm);
 }
 
 float CoatedDiffuseBxdf::coat_probability(Vec3f wo) const {
-    if (eta == 1.f) return 0.f;
+    if (eta == 1.f)
+        return 0.f;
     float fr = fr_dielectric(std::abs(wo.z), eta);
     // Estimated energy of the base term: its albedo is ~ T(wo) * rho_eff (see bsdf.h).
     float rho = clamp(reflectance.average(), 0.f, 1.f);
     float base = (1.f - fr) * rho * (1.f - fdr_int) / std::max(1e-6f, 1.f - rho * fdr_int);
-    if (!(base > 0.f)) return 1.f;
+    if (!(base > 0.f))
+        return 1.f;
     return clamp(fr / (fr + base), 0.1f, 0.9f);
 }
 
 Rgb CoatedDiffuseBxdf::f(Vec3f wo, Vec3f wi, TransportMode) const {
-    if (!same_hemisphere(wo, wi)) return {};
+    if (!same_hemisphere(wo, wi))
+        return {};
     // Two-sided: evaluate with both directions mirrored into the upper hemisphere.
     if (wo.z < 0.f) {
         wo = -wo;
@@ -368,7 +422,8 @@ Rgb CoatedDiffuseBxdf::f(Vec3f wo, Vec3f wi, TransportMode) const {
 }
 
 float CoatedDiffuseBxdf::pdf(Vec3f wo, Vec3f wi, TransportMode) const {
-    if (!same_hemisphere(wo, wi)) return 0.f;
+    if (!same_hemisphere(wo, wi))
+        return 0.f;
     if (wo.z < 0.f) {
         wo = -wo;
         wi = -wi;
@@ -380,9 +435,11 @@ float CoatedDiffuseBxdf::pdf(Vec3f wo, Vec3f wi, TransportMode) const {
 
 std::optional<BsdfSample> CoatedDiffuseBxdf::sample_f(Vec3f wo, float uc, Vec2f u,
                                                       TransportMode mode) const {
-    if (wo.z == 0.f) return std::nullopt;
+    if (wo.z == 0.f)
+        return std::nullopt;
     bool flipped = wo.z < 0.f;
-    if (flipped) wo = -wo;
+    if (flipped)
+        wo = -wo;
     float pc = coat_probability(wo);
     BsdfSample s;
     if (uc < pc && distrib.effectively_smooth()) {
@@ -396,19 +453,23 @@ std::optional<BsdfSample> CoatedDiffuseBxdf::sample_f(Vec3f wo, float uc, Vec2f 
         Vec3f wi;
         if (uc < pc) {
             wi = reflect(wo, distrib.sample_wm(wo, u));
-            if (!(wi.z > 0.f)) return std::nullopt;
+            if (!(wi.z > 0.f))
+                return std::nullopt;
             s.flags = kBxdfReflection | kBxdfGlossy;
         } else {
             wi = sampling::square_to_cosine_hemisphere(u);
-            if (!(wi.z > 0.f)) return std::nullopt;
+            if (!(wi.z > 0.f))
+                return std::nullopt;
             s.flags = kBxdfReflection | kBxdfDiffuse;
         }
         s.wi = wi;
         s.f = f(wo, wi, mode);
         s.pdf = pdf(wo, wi, mode);
-        if (!(s.pdf > 0.f) || s.f.is_black()) return std::nullopt;
+        if (!(s.pdf > 0.f) || s.f.is_black())
+            return std::nullopt;
     }
-    if (flipped) s.wi = -s.wi;
+    if (flipped)
+        s.wi = -s.wi;
     return s;
 }
 
@@ -418,7 +479,8 @@ std::optional<BsdfSample> CoatedDiffuseBxdf::sample_f(Vec3f wo, float uc, Vec2f 
 Rgb Bsdf::f(Vec3f wo_world, Vec3f wi_world, TransportMode mode) const {
     Vec3f wo = frame_.to_local(wo_world), wi = frame_.to_local(wi_world);
     std::optional<Vec3f> o = safe_normalize(wo), i = safe_normalize(wi);
-    if (!o || !i || o->z == 0.f) return {};
+    if (!o || !i || o->z == 0.f)
+        return {};
     Rgb r = std::visit([&](const auto &b) { return b.f(*o, *i, mode); }, bxdf_);
     return r.is_finite() ? r : Rgb();
 }
@@ -426,7 +488,8 @@ Rgb Bsdf::f(Vec3f wo_world, Vec3f wi_world, TransportMode mode) const {
 std::optional<BsdfSample> Bsdf::sample_f(Vec3f wo_world, float uc, Vec2f u,
                                          TransportMode mode) const {
     std::optional<Vec3f> wo = safe_normalize(frame_.to_local(wo_world));
-    if (!wo || wo->z == 0.f || flags() == kBxdfUnset) return std::nullopt;
+    if (!wo || wo->z == 0.f || flags() == kBxdfUnset)
+        return std::nullopt;
     std::optional<BsdfSample> s =
         std::visit([&](const auto &b) { return b.sample_f(*wo, uc, u, mode); }, bxdf_);
     if (!s || !(s->pdf > 0.f) || s->f.is_black() || s->wi.z == 0.f || !s->f.is_finite() ||
@@ -439,7 +502,8 @@ std::optional<BsdfSample> Bsdf::sample_f(Vec3f wo_world, float uc, Vec2f u,
 float Bsdf::pdf(Vec3f wo_world, Vec3f wi_world, TransportMode mode) const {
     std::optional<Vec3f> o = safe_normalize(frame_.to_local(wo_world));
     std::optional<Vec3f> i = safe_normalize(frame_.to_local(wi_world));
-    if (!o || !i || o->z == 0.f) return 0.f;
+    if (!o || !i || o->z == 0.f)
+        return 0.f;
     float p = std::visit([&](const auto &b) { return b.pdf(*o, *i, mode); }, bxdf_);
     return std::isfinite(p) ? p : 0.f;
 }

@@ -154,8 +154,8 @@ struct CoatedDiffuseBxdf {
     float fdr_int = 0.f;      ///< internal diffuse Fresnel reflectance (set by the constructor)
 
     CoatedDiffuseBxdf() : CoatedDiffuseBxdf(Rgb(0.5f), 1.5f, TrowbridgeReitz(0.f, 0.f)) {}
-    CoatedDiffuseBxdf(Rgb reflectance, float eta, TrowbridgeReitz distrib,
-                      float thickness = 0.01f, Rgb albedo = Rgb(0.f), float g = 0.f);
+    CoatedDiffuseBxdf(Rgb reflectance, float eta, TrowbridgeReitz distrib, float thickness = 0.01f,
+                      Rgb albedo = Rgb(0.f), float g = 0.f);
 
     Rgb f(Vec3f wo, Vec3f wi, TransportMode mode) const;
     std::optional<BsdfSample> sample_f(Vec3f wo, float uc, Vec2f u, TransportMode mode) const;

@@ -139,6 +139,8 @@ int Geometry::new_prototype(const std::string &name) {
     return int(groups_.size()) - 1;
 }
 
+RTCScene Geometry::rtc_scene() const { return groups_[0]->scene; }
+
 const std::vector<std::unique_ptr<TriangleMesh>> &Geometry::top_level_meshes() const {
     return groups_[0]->meshes;
 }

@@ -79,6 +79,8 @@ class Geometry {
     Vec3f bounds_max() const { return bmax_; }
     size_t triangle_count() const { return triangle_count_; }
     size_t instance_count() const { return instance_count_; }
+    /// The top-level Embree scene (benchmarks compare against raw Embree calls on it).
+    RTCScene rtc_scene() const;
     /// Meshes of the top level (for building area lights).
     const std::vector<std::unique_ptr<TriangleMesh>> &top_level_meshes() const;
 

@@ -15,7 +15,9 @@
 namespace tessera {
 
 /// Mirror of `wo` about the normal `n` (both pointing away from the surface).
-inline Vec3f reflect(Vec3f wo, Vec3f n) { return -wo + n * (2.f * dot(wo, n)); }
+inline Vec3f reflect(Vec3f wo, Vec3f n) {
+    return -wo + n * (2.f * dot(wo, n));
+}
 
 /// Refracts `wi` (pointing away from the surface) through the interface with normal `n` and
 /// relative IOR `eta` (inside over outside, with `n` on the outside). When `wi` lies below `n`
@@ -32,10 +34,12 @@ inline bool refract(Vec3f wi, Vec3f n, float eta, float *etap, Vec3f *wt) {
     }
     float sin2_i = std::max(0.f, 1.f - cos_i * cos_i);
     float sin2_t = sin2_i / (eta * eta);
-    if (sin2_t >= 1.f) return false;
+    if (sin2_t >= 1.f)
+        return false;
     float cos_t = safe_sqrt(1.f - sin2_t);
     *wt = -wi / eta + n * (cos_i / eta - cos_t);
-    if (etap) *etap = eta;
+    if (etap)
+        *etap = eta;
     return true;
 }
 
@@ -49,7 +53,8 @@ inline float fr_dielectric(float cos_i, float eta) {
         cos_i = -cos_i;
     }
     float sin2_t = (1.f - cos_i * cos_i) / (eta * eta);
-    if (sin2_t >= 1.f) return 1.f;
+    if (sin2_t >= 1.f)
+        return 1.f;
     float cos_t = safe_sqrt(1.f - sin2_t);
     float r_parl = (eta * cos_i - cos_t) / (eta * cos_i + cos_t);
     float r_perp = (cos_i - eta * cos_t) / (cos_i + eta * cos_t);
@@ -107,9 +112,11 @@ struct TrowbridgeReitz {
     /// Units: 1/sr. Zero for wm below the horizon.
     float d(Vec3f wm) const {
         float c2 = cos2_theta(wm);
-        if (!(c2 > 0.f)) return 0.f;
+        if (!(c2 > 0.f))
+            return 0.f;
         float t2 = tan2_theta(wm);
-        if (std::isinf(t2)) return 0.f;
+        if (std::isinf(t2))
+            return 0.f;
         float c4 = c2 * c2;
         float e = t2 * (sqr(cos_phi(wm) / alpha_x) + sqr(sin_phi(wm) / alpha_y));
         return 1.f / (kPi * alpha_x * alpha_y * c4 * sqr(1.f + e));
@@ -118,7 +125,8 @@ struct TrowbridgeReitz {
     /// Smith's auxiliary function Lambda(w) (PBRT eq. 9.22).
     float lambda(Vec3f w) const {
         float t2 = tan2_theta(w);
-        if (std::isinf(t2) || std::isnan(t2)) return 0.f;
+        if (std::isinf(t2) || std::isnan(t2))
+            return 0.f;
         float a2 = sqr(cos_phi(w) * alpha_x) + sqr(sin_phi(w) * alpha_y);
         return 0.5f * (std::sqrt(1.f + a2 * t2) - 1.f);
     }
@@ -135,9 +143,11 @@ struct TrowbridgeReitz {
     /// integrates to 1 over the +z hemisphere. Units: 1/sr over wm.
     float d(Vec3f w, Vec3f wm) const {
         float c = abs_cos_theta(w);
-        if (c == 0.f) return 0.f;
+        if (c == 0.f)
+            return 0.f;
         float w_dot_wm = w.z < 0.f ? -dot(w, wm) : dot(w, wm);
-        if (!(w_dot_wm > 0.f)) return 0.f;
+        if (!(w_dot_wm > 0.f))
+            return 0.f;
         return g1(w) / c * d(wm) * w_dot_wm;
     }
 
@@ -149,7 +159,8 @@ struct TrowbridgeReitz {
     /// the projected visible hemisphere as a disk warped toward its visible part, unstretch.
     Vec3f sample_wm(Vec3f w, Vec2f u) const {
         Vec3f wh = normalize(Vec3f(alpha_x * w.x, alpha_y * w.y, w.z));
-        if (wh.z < 0.f) wh = -wh;
+        if (wh.z < 0.f)
+            wh = -wh;
         Vec3f t1 = wh.z < 0.99999f ? normalize(cross(Vec3f(0, 0, 1), wh)) : Vec3f(1, 0, 0);
         Vec3f t2 = cross(wh, t1);
         // Uniform point on the unit disk (polar map; the continuous parametrisation keeps the

@@ -21,6 +21,7 @@
 //                       kFirstFreeDimension.
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <string>
 
@@ -33,13 +34,13 @@ inline constexpr uint32_t kPixelDimension = 0;
 /// First dimension handed out by get_1d / get_2d after start_pixel_sample().
 inline constexpr uint32_t kFirstFreeDimension = 2;
 
-/// Reverses the 32 bits of v.
+/// Reverses the 32 bits of v (byte swap, then nibbles, pairs and bits within each byte).
 inline constexpr uint32_t reverse_bits_32(uint32_t v) {
-    v = ((v >> 1) & 0x55555555u) | ((v & 0x55555555u) << 1);
-    v = ((v >> 2) & 0x33333333u) | ((v & 0x33333333u) << 2);
+    v = (v >> 24) | ((v >> 8) & 0x0000ff00u) | ((v << 8) & 0x00ff0000u) | (v << 24);
     v = ((v >> 4) & 0x0f0f0f0fu) | ((v & 0x0f0f0f0fu) << 4);
-    v = ((v >> 8) & 0x00ff00ffu) | ((v & 0x00ff00ffu) << 8);
-    return (v >> 16) | (v << 16);
+    v = ((v >> 2) & 0x33333333u) | ((v & 0x33333333u) << 2);
+    v = ((v >> 1) & 0x55555555u) | ((v & 0x55555555u) << 1);
+    return v;
 }
 
 /// 32-bit integer finaliser with low bias ("lowbias32", C. Wellons 2018). Bijective.
@@ -52,14 +53,22 @@ inline constexpr uint32_t mix_bits_32(uint32_t x) {
     return x;
 }
 
+/// Hash of (seed, px, py): the part of every scramble seed shared by a pixel's dimensions.
+inline constexpr uint32_t hash_pixel(uint32_t seed, uint32_t px, uint32_t py) {
+    uint32_t h = mix_bits_32(seed ^ 0x9e3779b9u);
+    h = mix_bits_32(h ^ px);
+    return mix_bits_32((h + 0x85ebca6bu) ^ py);
+}
+
+/// Hash of a pixel hash and a dimension.
+inline constexpr uint32_t hash_dimension(uint32_t pixel_hash, uint32_t dim) {
+    return mix_bits_32(pixel_hash ^ (dim * 0xc2b2ae35u + 0x27d4eb2fu));
+}
+
 /// Hash of (seed, px, py, dimension), the root of every per-pixel scramble seed.
 inline constexpr uint32_t hash_pixel_dimension(uint32_t seed, uint32_t px, uint32_t py,
                                                uint32_t dim) {
-    uint32_t h = mix_bits_32(seed ^ 0x9e3779b9u);
-    h = mix_bits_32(h ^ px);
-    h = mix_bits_32((h + 0x85ebca6bu) ^ py);
-    h = mix_bits_32(h ^ (dim * 0xc2b2ae35u + 0x27d4eb2fu));
-    return h;
+    return hash_dimension(hash_pixel(seed, px, py), dim);
 }
 
 /// Nested uniform (Owen) scramble of a 32-bit fixed-point value in [0,1): bit k of the result
@@ -79,9 +88,9 @@ inline constexpr uint32_t owen_scramble_32(uint32_t x, uint32_t seed) {
 /// Sobol dimension 0 (van der Corput, base 2) of `index` as 32-bit fixed point.
 inline constexpr uint32_t sobol_dim0(uint32_t index) { return reverse_bits_32(index); }
 
-/// Sobol dimension 1 of `index` as 32-bit fixed point (primitive polynomial x + 1: direction
-/// numbers v_1 = 2^31, v_k = v_{k-1} ^ (v_{k-1} >> 1)).
-inline constexpr uint32_t sobol_dim1(uint32_t index) {
+/// Sobol dimension 1 of `index` as 32-bit fixed point, bit by bit (primitive polynomial x + 1:
+/// direction numbers v_1 = 2^31, v_k = v_{k-1} ^ (v_{k-1} >> 1)). Reference for the table below.
+inline constexpr uint32_t sobol_dim1_reference(uint32_t index) {
     uint32_t result = 0;
     uint32_t v = 0x80000000u;
     for (; index != 0; index >>= 1) {
@@ -91,22 +100,57 @@ inline constexpr uint32_t sobol_dim1(uint32_t index) {
     return result;
 }
 
+namespace detail {
+/// The dimension-1 generator matrix applied to each byte of the index (it is linear over GF(2),
+/// so the result is the XOR of four table entries).
+inline constexpr std::array<std::array<uint32_t, 256>, 4> kSobolDim1Table = [] {
+    std::array<std::array<uint32_t, 256>, 4> t{};
+    for (uint32_t b = 0; b < 4; ++b)
+        for (uint32_t i = 0; i < 256; ++i) t[b][i] = sobol_dim1_reference(i << (8 * b));
+    return t;
+}();
+}  // namespace detail
+
+/// Sobol dimension 1 of `index` as 32-bit fixed point (four table lookups).
+inline constexpr uint32_t sobol_dim1(uint32_t index) {
+    return detail::kSobolDim1Table[0][index & 0xffu] ^
+           detail::kSobolDim1Table[1][(index >> 8) & 0xffu] ^
+           detail::kSobolDim1Table[2][(index >> 16) & 0xffu] ^
+           detail::kSobolDim1Table[3][index >> 24];
+}
+
 /// 32-bit fixed point to a float in [0, 1). Truncates to the top 24 bits: rounding to nearest
 /// could carry a value across a dyadic boundary and break the stratification.
 inline float fixed_to_unit_float(uint32_t x) {
     return std::min(static_cast<float>(x >> 8) * 0x1p-24f, kOneMinusEpsilon);
 }
 
+/// Laine-Karras hash of a bit-reversed value (the core of owen_scramble_32).
+inline constexpr uint32_t laine_karras_32(uint32_t x, uint32_t seed) {
+    x ^= x * 0x3d20adeau;
+    x += seed;
+    x *= (seed >> 16) | 1u;
+    x ^= x * 0x05526c56u;
+    x ^= x * 0x53a22864u;
+    return x;
+}
+
+/// Owen scramble of Sobol dimension 0 of `index`: owen_scramble_32(sobol_dim0(index), seed)
+/// with the two bit reversals that cancel removed.
+inline constexpr uint32_t owen_sobol_dim0(uint32_t index, uint32_t seed) {
+    return reverse_bits_32(laine_karras_32(index, seed));
+}
+
 /// Owen-scrambled 1D value of (pixel hash `h`, sample index): shuffled, scrambled van der Corput.
 inline float scrambled_sobol_1d(uint32_t h, uint32_t index) {
     uint32_t shuffled = owen_scramble_32(index, mix_bits_32(h ^ 0x68bc21ebu));
-    return fixed_to_unit_float(owen_scramble_32(sobol_dim0(shuffled), mix_bits_32(h + 1u)));
+    return fixed_to_unit_float(owen_sobol_dim0(shuffled, mix_bits_32(h + 1u)));
 }
 
 /// Owen-scrambled 2D value of (pixel hash `h`, sample index): shuffled, scrambled Sobol (0,2).
 inline Vec2f scrambled_sobol_2d(uint32_t h, uint32_t index) {
     uint32_t shuffled = owen_scramble_32(index, mix_bits_32(h ^ 0x68bc21ebu));
-    uint32_t x = owen_scramble_32(sobol_dim0(shuffled), mix_bits_32(h + 1u));
+    uint32_t x = owen_sobol_dim0(shuffled, mix_bits_32(h + 1u));
     uint32_t y = owen_scramble_32(sobol_dim1(shuffled), mix_bits_32(h + 2u));
     return {fixed_to_unit_float(x), fixed_to_unit_float(y)};
 }
@@ -124,7 +168,7 @@ inline Vec2f scrambled_sobol_2d(uint32_t h, uint32_t index) {
 class SobolSampler {
   public:
     /// `seed` selects an independent scrambling of every pixel and dimension.
-    explicit SobolSampler(uint32_t seed = 0) : seed_(seed) {}
+    explicit SobolSampler(uint32_t seed = 0) : seed_(seed), pixel_hash_(hash_pixel(seed, 0, 0)) {}
 
     /// Starts sample `index` of pixel (px, py) and resets the dimension to `dimension`
     /// (default kFirstFreeDimension).
@@ -134,18 +178,19 @@ class SobolSampler {
         py_ = py;
         index_ = index;
         dim_ = dimension;
+        pixel_hash_ = hash_pixel(seed_, px, py);
     }
 
     /// Next 1D value in [0,1); consumes one dimension.
     float get_1d() {
-        uint32_t h = hash_pixel_dimension(seed_, px_, py_, dim_);
+        uint32_t h = hash_dimension(pixel_hash_, dim_);
         ++dim_;
         return scrambled_sobol_1d(h, index_);
     }
 
     /// Next 2D value in [0,1)^2; consumes two dimensions (one stratified pair).
     Vec2f get_2d() {
-        uint32_t h = hash_pixel_dimension(seed_, px_, py_, dim_);
+        uint32_t h = hash_dimension(pixel_hash_, dim_);
         dim_ += 2;
         return scrambled_sobol_2d(h, index_);
     }
@@ -153,8 +198,7 @@ class SobolSampler {
     /// Film offset inside the pixel in [0,1)^2 from the reserved pair (kPixelDimension,
     /// kPixelDimension + 1). Does not advance the dimension counter.
     Vec2f get_pixel_2d() const {
-        return scrambled_sobol_2d(hash_pixel_dimension(seed_, px_, py_, kPixelDimension),
-                                  index_);
+        return scrambled_sobol_2d(hash_dimension(pixel_hash_, kPixelDimension), index_);
     }
 
     /// Next dimension get_1d / get_2d will use.
@@ -170,6 +214,7 @@ class SobolSampler {
     uint32_t px_ = 0, py_ = 0;
     uint32_t index_ = 0;
     uint32_t dim_ = kFirstFreeDimension;
+    uint32_t pixel_hash_ = hash_pixel(0, 0, 0);  // hash_pixel(seed_, px_, py_)
 };
 
 }  // namespace tessera::sampling

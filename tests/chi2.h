@@ -58,15 +58,15 @@ class Chi2Rng {
 
 /// Settings of one chi-square test. The defaults suit lobes as narrow as GGX alpha ~0.05.
 struct Chi2Options {
-    int theta_bins = 30;             ///< bins over theta in [0, pi]
-    int phi_bins = 60;               ///< bins over phi in [0, 2 pi)
-    int sample_count = 300000;       ///< N, samples drawn
-    uint64_t seed = 1;               ///< seed of the sample stream
-    double significance = 0.01;      ///< overall significance level
-    int num_tests = 1;               ///< number of tests in the family (Bonferroni correction)
-    double min_expected = 5.0;       ///< bins below this expected count are pooled
-    int integration_cells = 2;       ///< per bin and axis, cells refined adaptively
-    double integration_tol = 2e-7;   ///< absolute tolerance per bin of the pdf integral
+    int theta_bins = 30;            ///< bins over theta in [0, pi]
+    int phi_bins = 60;              ///< bins over phi in [0, 2 pi)
+    int sample_count = 300000;      ///< N, samples drawn
+    uint64_t seed = 1;              ///< seed of the sample stream
+    double significance = 0.01;     ///< overall significance level
+    int num_tests = 1;              ///< number of tests in the family (Bonferroni correction)
+    double min_expected = 5.0;      ///< bins below this expected count are pooled
+    int integration_cells = 2;      ///< per bin and axis, cells refined adaptively
+    double integration_tol = 2e-7;  ///< absolute tolerance per bin of the pdf integral
 };
 
 /// Outcome of chi2_sphere.
@@ -92,11 +92,13 @@ inline double log_gamma(double x) {
     static const double c[9] = {0.99999999999980993,  676.5203681218851,     -1259.1392167224028,
                                 771.32342877765313,   -176.61502916214059,   12.507343278686905,
                                 -0.13857109526572012, 9.9843695780195716e-6, 1.5056327351493116e-7};
-    if (x < 0.5) return std::log(M_PI / std::sin(M_PI * x)) - log_gamma(1.0 - x);
+    if (x < 0.5)
+        return std::log(M_PI / std::sin(M_PI * x)) - log_gamma(1.0 - x);
     x -= 1.0;
     double a = c[0];
     double t = x + 7.5;
-    for (int i = 1; i < 9; ++i) a += c[i] / (x + i);
+    for (int i = 1; i < 9; ++i)
+        a += c[i] / (x + i);
     return 0.5 * std::log(2 * M_PI) + (x + 0.5) * std::log(t) - t + std::log(a);
 }
 
@@ -106,7 +108,8 @@ inline double gamma_p_series(double a, double x) {
     for (int n = 1; n < 100000; ++n) {
         term *= x / (a + n);
         sum += term;
-        if (std::abs(term) < std::abs(sum) * 1e-15) break;
+        if (std::abs(term) < std::abs(sum) * 1e-15)
+            break;
     }
     return sum * std::exp(-x + a * std::log(x) - log_gamma(a));
 }
@@ -120,13 +123,16 @@ inline double gamma_q_fraction(double a, double x) {
         double an = -i * (i - a);
         b += 2.0;
         d = an * d + b;
-        if (std::abs(d) < tiny) d = tiny;
+        if (std::abs(d) < tiny)
+            d = tiny;
         c = b + an / c;
-        if (std::abs(c) < tiny) c = tiny;
+        if (std::abs(c) < tiny)
+            c = tiny;
         d = 1.0 / d;
         double delta = d * c;
         h *= delta;
-        if (std::abs(delta - 1.0) < 1e-15) break;
+        if (std::abs(delta - 1.0) < 1e-15)
+            break;
     }
     return std::exp(-x + a * std::log(x) - log_gamma(a)) * h;
 }
@@ -136,7 +142,8 @@ inline double simpson_3x3(const double v[3][3], double hx, double hy) {
     static const double w[3] = {1, 4, 1};
     double s = 0;
     for (int i = 0; i < 3; ++i)
-        for (int j = 0; j < 3; ++j) s += w[i] * w[j] * v[i][j];
+        for (int j = 0; j < 3; ++j)
+            s += w[i] * w[j] * v[i][j];
     return s * hx * hy / 36.0;
 }
 
@@ -156,11 +163,13 @@ double adaptive_simpson_2d(const F &f, double x0, double x1, double y0, double y
     for (int a = 0; a < 2; ++a)
         for (int b = 0; b < 2; ++b) {
             for (int i = 0; i < 3; ++i)
-                for (int j = 0; j < 3; ++j) sub[a][b][i][j] = g[2 * a + i][2 * b + j];
+                for (int j = 0; j < 3; ++j)
+                    sub[a][b][i][j] = g[2 * a + i][2 * b + j];
             q[a][b] = simpson_3x3(sub[a][b], 2 * hx, 2 * hy);
             sum += q[a][b];
         }
-    if (depth <= 0 || std::abs(sum - whole) <= 15.0 * tol) return sum + (sum - whole) / 15.0;
+    if (depth <= 0 || std::abs(sum - whole) <= 15.0 * tol)
+        return sum + (sum - whole) / 15.0;
     double r = 0;
     for (int a = 0; a < 2; ++a)
         for (int b = 0; b < 2; ++b)
@@ -175,7 +184,8 @@ template <typename F>
 double integrate_2d(const F &f, double x0, double x1, double y0, double y1, double tol) {
     double v[3][3];
     for (int i = 0; i < 3; ++i)
-        for (int j = 0; j < 3; ++j) v[i][j] = f(x0 + i * (x1 - x0) / 2, y0 + j * (y1 - y0) / 2);
+        for (int j = 0; j < 3; ++j)
+            v[i][j] = f(x0 + i * (x1 - x0) / 2, y0 + j * (y1 - y0) / 2);
     double whole = simpson_3x3(v, x1 - x0, y1 - y0);
     return adaptive_simpson_2d(f, x0, x1, y0, y1, v, whole, tol, 7);
 }
@@ -185,17 +195,20 @@ double integrate_2d(const F &f, double x0, double x1, double y0, double y1, doub
 /// Upper tail of the chi-square distribution with `dof` degrees of freedom at `x`:
 /// P(X >= x) = Q(dof/2, x/2). Returns 1 for x <= 0.
 inline double chi2_p_value(double x, int dof) {
-    if (dof <= 0) return 1.0;
-    if (x <= 0) return 1.0;
+    if (dof <= 0)
+        return 1.0;
+    if (x <= 0)
+        return 1.0;
     double a = 0.5 * dof, xx = 0.5 * x;
-    if (xx < a + 1.0) return std::clamp(1.0 - detail::gamma_p_series(a, xx), 0.0, 1.0);
+    if (xx < a + 1.0)
+        return std::clamp(1.0 - detail::gamma_p_series(a, xx), 0.0, 1.0);
     return std::clamp(detail::gamma_q_fraction(a, xx), 0.0, 1.0);
 }
 
 /// Integrates `pdf` over each (theta, phi) bin of the sphere. Returns theta_bins * phi_bins
 /// probabilities, row-major in theta; their sum is the integral of the pdf over the sphere.
-inline std::vector<double> integrate_pdf_bins(const DirectionPdf &pdf, int theta_bins,
-                                              int phi_bins, int cells = 2, double tol = 1e-6) {
+inline std::vector<double> integrate_pdf_bins(const DirectionPdf &pdf, int theta_bins, int phi_bins,
+                                              int cells = 2, double tol = 1e-6) {
     std::vector<double> out(static_cast<size_t>(theta_bins) * phi_bins, 0.0);
     // Integrand in (theta, phi) with the solid-angle Jacobian sin(theta).
     auto f = [&](double theta, double phi) {
@@ -226,10 +239,11 @@ inline std::vector<double> integrate_pdf_bins(const DirectionPdf &pdf, int theta
 /// Integral of `pdf` over the unit sphere (should be 1 for a normalised non-delta sampler, or the
 /// probability of a non-delta, non-rejected sample for mixtures / lobes that can fail).
 /// `tol` is the absolute tolerance per bin; the total error is typically far below bins * tol.
-inline double integrate_pdf_sphere(const DirectionPdf &pdf, int theta_bins = 30,
-                                   int phi_bins = 60, double tol = 2e-8) {
+inline double integrate_pdf_sphere(const DirectionPdf &pdf, int theta_bins = 30, int phi_bins = 60,
+                                   double tol = 2e-8) {
     double s = 0;
-    for (double v : integrate_pdf_bins(pdf, theta_bins, phi_bins, 2, tol)) s += v;
+    for (double v : integrate_pdf_bins(pdf, theta_bins, phi_bins, 2, tol))
+        s += v;
     return s;
 }
 
@@ -261,14 +275,15 @@ inline Chi2Result chi2_sphere(const std::string &name, const DirectionSampler &s
         Vec3f d = *w / len;
         double theta = std::acos(std::clamp(static_cast<double>(d.z), -1.0, 1.0));
         double phi = std::atan2(static_cast<double>(d.y), static_cast<double>(d.x));
-        if (phi < 0) phi += 2 * M_PI;
+        if (phi < 0)
+            phi += 2 * M_PI;
         int it = std::min(nt - 1, static_cast<int>(theta / M_PI * nt));
         int ip = std::min(np - 1, static_cast<int>(phi / (2 * M_PI) * np));
         observed[static_cast<size_t>(it) * np + ip] += 1;
     }
 
-    std::vector<double> expected = integrate_pdf_bins(pdf, nt, np, opt.integration_cells,
-                                                      opt.integration_tol);
+    std::vector<double> expected =
+        integrate_pdf_bins(pdf, nt, np, opt.integration_cells, opt.integration_tol);
     double total = 0;
     for (double &e : expected) {
         total += e;
@@ -297,14 +312,16 @@ inline Chi2Result chi2_sphere(const std::string &name, const DirectionSampler &s
 
     // Pool the small bins, smallest first, into one bin whose expected count reaches the minimum.
     std::vector<size_t> order(nbins + 1);
-    for (size_t i = 0; i <= nbins; ++i) order[i] = i;
+    for (size_t i = 0; i <= nbins; ++i)
+        order[i] = i;
     std::sort(order.begin(), order.end(),
               [&](size_t a, size_t b) { return expected[a] < expected[b]; });
     double chi2 = 0, pool_obs = 0, pool_exp = 0;
     int used_bins = 0;
     for (size_t idx : order) {
         double e = expected[idx], o = observed[idx];
-        if (e <= 0 && o <= 0) continue;
+        if (e <= 0 && o <= 0)
+            continue;
         if (e < opt.min_expected) {
             pool_obs += o;
             pool_exp += e;
@@ -348,12 +365,14 @@ inline Chi2Result chi2_sphere(const std::string &name, const DirectionSampler &s
         out << "# " << msg.str() << "\n# rows: theta bins (0 = +z), columns: phi bins\n";
         out << "# observed\n";
         for (int it = 0; it < nt; ++it) {
-            for (int ip = 0; ip < np; ++ip) out << observed[static_cast<size_t>(it) * np + ip] << ' ';
+            for (int ip = 0; ip < np; ++ip)
+                out << observed[static_cast<size_t>(it) * np + ip] << ' ';
             out << '\n';
         }
         out << "# expected\n";
         for (int it = 0; it < nt; ++it) {
-            for (int ip = 0; ip < np; ++ip) out << expected[static_cast<size_t>(it) * np + ip] << ' ';
+            for (int ip = 0; ip < np; ++ip)
+                out << expected[static_cast<size_t>(it) * np + ip] << ' ';
             out << '\n';
         }
         out << "# rejected: observed " << observed[nbins] << " expected " << expected[nbins]

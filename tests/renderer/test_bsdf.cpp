@@ -28,15 +28,15 @@ Rgb eval_f(const B &b, Vec3f wo, Vec3f wi, TransportMode m = TransportMode::Radi
 /// Integral over the sphere of a scalar function of direction (adaptive Simpson, tests/chi2.h).
 double integrate_sphere(const std::function<double(Vec3f)> &fn) {
     double sum = 0;
-    for (double v : test::integrate_pdf_bins(fn, 20, 40, 2, 1e-6)) sum += v;
+    for (double v : test::integrate_pdf_bins(fn, 20, 40, 2, 1e-6))
+        sum += v;
     return sum;
 }
 
 /// Directional albedo of the non-delta part of a Bxdf, channel c: int f |cos| dwi.
 double albedo_quadrature(const Bxdf &b, Vec3f wo, int c = 0) {
     return integrate_sphere([&](Vec3f wi) -> double {
-        Rgb f = std::visit([&](const auto &x) { return x.f(wo, wi, TransportMode::Radiance); },
-                           b);
+        Rgb f = std::visit([&](const auto &x) { return x.f(wo, wi, TransportMode::Radiance); }, b);
         return f[c] * std::abs(wi.z);
     });
 }
@@ -50,7 +50,8 @@ double albedo_mc(const Bxdf &b, Vec3f wo, int n, uint64_t seed, int c = 0,
         float uc = rng.uniform();
         Vec2f u = rng.uniform2();
         auto s = std::visit([&](const auto &x) { return x.sample_f(wo, uc, u, mode); }, b);
-        if (s) sum += s->f[c] * std::abs(s->wi.z) / s->pdf;
+        if (s)
+            sum += s->f[c] * std::abs(s->wi.z) / s->pdf;
     }
     return sum / n;
 }
@@ -74,7 +75,7 @@ TEST_CASE("Fresnel: dielectric against closed forms") {
         float r0 = sqr((eta - 1.f) / (eta + 1.f));
         CHECK(fr_dielectric(1.f, eta) == Approx(r0).epsilon(1e-5));
         CHECK(fr_dielectric(-1.f, eta) == Approx(r0).epsilon(1e-5));  // from inside
-        CHECK(fr_dielectric(0.f, eta) == Approx(1.f));                   // grazing
+        CHECK(fr_dielectric(0.f, eta) == Approx(1.f));                // grazing
         // Brewster's angle: the parallel component vanishes; F = r_perp^2 / 2.
         float tb = std::atan(eta);
         float ci = std::cos(tb), ct = std::cos(kPiOver2 - tb);
@@ -95,14 +96,16 @@ TEST_CASE("Fresnel: conductor against closed forms") {
         CHECK(fr_complex(1.f, n, k) == Approx(expect).epsilon(1e-4));
     }
     // k = 0 reduces to the dielectric formula.
-    for (float c : {0.1f, 0.5f, 0.9f}) CHECK(fr_complex(c, 1.5f, 0.f) == Approx(fr_dielectric(c, 1.5f)).epsilon(1e-4));
+    for (float c : {0.1f, 0.5f, 0.9f})
+        CHECK(fr_complex(c, 1.5f, 0.f) == Approx(fr_dielectric(c, 1.5f)).epsilon(1e-4));
     CHECK(fr_complex(0.f, 0.2f, 3.9f) == Approx(1.f));
     CHECK(fr_complex(0.7f, 1.f, 1e4f) > 0.999f);
     // "reflectance" parameter mapping reproduces r at normal incidence.
     Rgb r(0.9f, 0.5f, 0.05f);
     Rgb k = conductor_k_from_reflectance(r);
     Rgb f0 = fr_complex(1.f, Rgb(1.f), k);
-    for (int c = 0; c < 3; ++c) CHECK(f0[c] == Approx(r[c]).epsilon(1e-4));
+    for (int c = 0; c < 3; ++c)
+        CHECK(f0[c] == Approx(r[c]).epsilon(1e-4));
 }
 
 TEST_CASE("reflect and refract follow the mirror law and Snell's law") {
@@ -135,8 +138,9 @@ TEST_CASE("Trowbridge-Reitz: D and visible normals are normalised, G1 is Smith's
         // int D_w(wm) dwm = 1 for the visible normals of any w.
         for (float th : {0.f, 45.f, 80.f}) {
             Vec3f w = dir_from_theta(th, 10.f);
-            CHECK(integrate_sphere([&](Vec3f wm) -> double { return wm.z > 0 ? d.pdf(w, wm) : 0; }) ==
-                  Approx(1.0).epsilon(3e-3));
+            CHECK(integrate_sphere([&](Vec3f wm) -> double {
+                      return wm.z > 0 ? d.pdf(w, wm) : 0;
+                  }) == Approx(1.0).epsilon(3e-3));
         }
     }
     TrowbridgeReitz d(0.5f, 0.5f);
@@ -183,11 +187,13 @@ TEST_CASE("dielectric transmission: adjoint and generalized reciprocity") {
     for (int i = 0; i < 500; ++i) {
         Vec3f wo = sampling::square_to_uniform_sphere(rng.uniform2());
         Vec3f wi = sampling::square_to_uniform_sphere(rng.uniform2());
-        if (same_hemisphere(wo, wi)) continue;
+        if (same_hemisphere(wo, wi))
+            continue;
         float f_rad = b.f(wo, wi, TransportMode::Radiance).r;
         float f_imp_rev = b.f(wi, wo, TransportMode::Importance).r;
         float f_rad_rev = b.f(wi, wo, TransportMode::Radiance).r;
-        if (f_rad < 1e-4f) continue;
+        if (f_rad < 1e-4f)
+            continue;
         ++tested;
         CHECK(f_imp_rev == Approx(f_rad).epsilon(1e-3));
         float n_o = wo.z > 0 ? 1.f : eta, n_i = wi.z > 0 ? 1.f : eta;
@@ -210,17 +216,20 @@ TEST_CASE("sample_f agrees with f and pdf, and f |cos| / pdf is the sample weigh
                             return x.sample_f(wo, uc, u, TransportMode::Radiance);
                         },
                         b);
-                    if (!s) continue;
+                    if (!s)
+                        continue;
                     CHECK(length(s->wi) == Approx(1.f).epsilon(1e-4));
                     CHECK(s->pdf > 0.f);
-                    if (s->is_specular()) continue;
+                    if (s->is_specular())
+                        continue;
                     ++ok;
                     Rgb f = std::visit([&](const auto &x) { return eval_f(x, wo, s->wi); }, b);
                     float pdf = std::visit(
                         [&](const auto &x) { return x.pdf(wo, s->wi, TransportMode::Radiance); },
                         b);
                     CHECK(pdf == Approx(s->pdf).epsilon(2e-3));
-                    for (int ch = 0; ch < 3; ++ch) CHECK(f[ch] == Approx(s->f[ch]).epsilon(2e-3));
+                    for (int ch = 0; ch < 3; ++ch)
+                        CHECK(f[ch] == Approx(s->f[ch]).epsilon(2e-3));
                     if (s->is_transmission()) {
                         CHECK(s->eta != 1.f);
                         CHECK_FALSE(same_hemisphere(wo, s->wi));
@@ -296,8 +305,8 @@ TEST_CASE("smooth dielectric: Fresnel split with R + T = 1 and the eta^2 radianc
                 CHECK(st->eta == Approx(eta));
                 CHECK(sin_theta(st->wi) * st->eta == Approx(sin_theta(wo)).epsilon(1e-4));
                 transmitted = st->pdf * w * sqr(st->eta);
-                auto si = b.sample_f(wo, r + 0.5f * (1.f - r), {0.5f, 0.5f},
-                                     TransportMode::Importance);
+                auto si =
+                    b.sample_f(wo, r + 0.5f * (1.f - r), {0.5f, 0.5f}, TransportMode::Importance);
                 REQUIRE(si);
                 CHECK(si->f.r * std::abs(si->wi.z) / si->pdf == Approx(1.f).epsilon(1e-4));
             }
@@ -365,7 +374,8 @@ TEST_CASE("coated diffuse: energy conservation, reciprocity and the smooth limit
                 // for the transmittance slightly underestimates the rough coat's reflection.
                 CHECK(a <= 1.0 + 2e-3);
                 // Single scattering in the coat loses energy, most at grazing angles.
-                if (th < 80.f) CHECK(a > 0.75);
+                if (th < 80.f)
+                    CHECK(a > 0.75);
             }
         }
     }
@@ -452,9 +462,10 @@ TEST_CASE("edge cases never produce NaN or Inf") {
     }
     models.push_back(ConductorBxdf{TrowbridgeReitz(0.f, 0.5f), Rgb(0.2f), Rgb(3.f)});
     models.push_back(CoatedDiffuseBxdf(Rgb(0.5f), 0.5f, TrowbridgeReitz(0.f, 0.f), 0.f));
-    std::vector<Vec3f> dirs = {Vec3f(0, 0, 1),  Vec3f(0, 0, -1),       Vec3f(1, 0, 0),
-                               Vec3f(0, 1, 0),  dir_from_theta(89.99f), -dir_from_theta(89.99f),
-                               Vec3f(1e-7f, 0, 1), normalize(Vec3f(1, 1, 1e-6f)),
+    std::vector<Vec3f> dirs = {Vec3f(0, 0, 1),         Vec3f(0, 0, -1),
+                               Vec3f(1, 0, 0),         Vec3f(0, 1, 0),
+                               dir_from_theta(89.99f), -dir_from_theta(89.99f),
+                               Vec3f(1e-7f, 0, 1),     normalize(Vec3f(1, 1, 1e-6f)),
                                dir_from_theta(45.f)};
     std::vector<float> us = {0.f, 0.5f, kOneMinusEpsilon};
     int samples = 0;
@@ -475,7 +486,8 @@ TEST_CASE("edge cases never produce NaN or Inf") {
                 for (float ux : us) {
                     for (float uy : us) {
                         auto s = bsdf.sample_f(wo, uc, {ux, uy});
-                        if (!s) continue;
+                        if (!s)
+                            continue;
                         ++samples;
                         CHECK(s->f.is_finite());
                         CHECK(std::isfinite(s->pdf));

@@ -35,8 +35,8 @@ std::string fmt(float v) {
 std::vector<Case> all_cases() {
     std::vector<Case> cases;
     for (float th : {0.f, 60.f, 89.f}) {
-        cases.push_back({"diffuse", "diffuse_" + fmt(th), DiffuseBxdf{Rgb(0.7f)},
-                         dir_from_theta(th)});
+        cases.push_back(
+            {"diffuse", "diffuse_" + fmt(th), DiffuseBxdf{Rgb(0.7f)}, dir_from_theta(th)});
     }
     cases.push_back({"diffuse", "diffuse_below", DiffuseBxdf{Rgb(0.7f)}, -dir_from_theta(40.f)});
 
@@ -48,14 +48,14 @@ std::vector<Case> all_cases() {
                              dir_from_theta(th)});
         }
     }
-    cases.push_back({"conductor", "conductor_aniso1", ConductorBxdf{TrowbridgeReitz(0.1f, 0.5f),
-                                                                    cu_eta, cu_k},
+    cases.push_back({"conductor", "conductor_aniso1",
+                     ConductorBxdf{TrowbridgeReitz(0.1f, 0.5f), cu_eta, cu_k},
                      dir_from_theta(50.f, 20.f)});
-    cases.push_back({"conductor", "conductor_aniso2", ConductorBxdf{TrowbridgeReitz(0.6f, 0.15f),
-                                                                    cu_eta, cu_k},
+    cases.push_back({"conductor", "conductor_aniso2",
+                     ConductorBxdf{TrowbridgeReitz(0.6f, 0.15f), cu_eta, cu_k},
                      dir_from_theta(70.f, 110.f)});
-    cases.push_back({"conductor", "conductor_below", ConductorBxdf{TrowbridgeReitz(0.3f, 0.3f),
-                                                                   cu_eta, cu_k},
+    cases.push_back({"conductor", "conductor_below",
+                     ConductorBxdf{TrowbridgeReitz(0.3f, 0.3f), cu_eta, cu_k},
                      -dir_from_theta(30.f)});
 
     for (float eta : {1.5f, 1.f / 1.5f}) {
@@ -68,18 +68,17 @@ std::vector<Case> all_cases() {
         }
     }
     // Seen from inside (wo below the surface), and anisotropic.
-    cases.push_back({"dielectric", "dielectric_inside", DielectricBxdf{1.5f, TrowbridgeReitz(0.3f,
-                                                                                           0.3f)},
-                     -dir_from_theta(35.f)});
+    cases.push_back({"dielectric", "dielectric_inside",
+                     DielectricBxdf{1.5f, TrowbridgeReitz(0.3f, 0.3f)}, -dir_from_theta(35.f)});
     cases.push_back({"dielectric", "dielectric_aniso",
                      DielectricBxdf{1.33f, TrowbridgeReitz(0.05f, 0.4f)}, dir_from_theta(40.f)});
 
     for (float a : {0.f, 0.2f}) {
         for (float th : {0.f, 50.f, 85.f}) {
-            cases.push_back({"coated", "coated_a" + fmt(a) + "_t" + fmt(th),
-                             CoatedDiffuseBxdf(Rgb(0.8f, 0.5f, 0.2f), 1.5f, TrowbridgeReitz(a, a),
-                                               0.01f),
-                             dir_from_theta(th)});
+            cases.push_back(
+                {"coated", "coated_a" + fmt(a) + "_t" + fmt(th),
+                 CoatedDiffuseBxdf(Rgb(0.8f, 0.5f, 0.2f), 1.5f, TrowbridgeReitz(a, a), 0.01f),
+                 dir_from_theta(th)});
         }
     }
     cases.push_back({"coated", "coated_below",
@@ -94,7 +93,8 @@ void run_family(const std::string &family) {
     int ran = 0;
     for (const Case &c : cases) {
         ++seed;
-        if (c.family != family) continue;
+        if (c.family != family)
+            continue;
         ++ran;
         test::Chi2Options opt;
         opt.num_tests = static_cast<int>(cases.size());
@@ -107,7 +107,8 @@ void run_family(const std::string &family) {
             auto s = std::visit(
                 [&](const auto &b) { return b.sample_f(wo, uc, u, TransportMode::Radiance); },
                 bxdf);
-            if (!s || s->is_specular()) return std::nullopt;
+            if (!s || s->is_specular())
+                return std::nullopt;
             return s->wi;
         };
         auto pdf = [&](Vec3f wi) -> double {
@@ -148,10 +149,18 @@ TEST_CASE("chi2 helper: rejects a sampler that does not match its pdf") {
     CHECK(r.pdf_integral == doctest::Approx(1.0).epsilon(1e-4));
 }
 
-TEST_CASE("chi2: diffuse") { run_family("diffuse"); }
-TEST_CASE("chi2: conductor (isotropic and anisotropic GGX)") { run_family("conductor"); }
-TEST_CASE("chi2: rough dielectric (reflection + transmission)") { run_family("dielectric"); }
-TEST_CASE("chi2: coated diffuse") { run_family("coated"); }
+TEST_CASE("chi2: diffuse") {
+    run_family("diffuse");
+}
+TEST_CASE("chi2: conductor (isotropic and anisotropic GGX)") {
+    run_family("conductor");
+}
+TEST_CASE("chi2: rough dielectric (reflection + transmission)") {
+    run_family("dielectric");
+}
+TEST_CASE("chi2: coated diffuse") {
+    run_family("coated");
+}
 
 TEST_CASE("chi2: Bsdf world-space wrapper with a rotated anisotropic frame") {
     Frame frame = Frame::from_xz(normalize(Vec3f(1, 2, 0.5f)), normalize(Vec3f(0.3f, -0.4f, 0.8f)));
@@ -159,7 +168,8 @@ TEST_CASE("chi2: Bsdf world-space wrapper with a rotated anisotropic frame") {
     Vec3f wo = frame.to_world(dir_from_theta(55.f, 70.f));
     auto sampler = [&](Vec2f u, float uc) -> std::optional<Vec3f> {
         auto s = bsdf.sample_f(wo, uc, u);
-        if (!s) return std::nullopt;
+        if (!s)
+            return std::nullopt;
         return s->wi;
     };
     auto pdf = [&](Vec3f wi) -> double { return bsdf.pdf(wo, wi); };

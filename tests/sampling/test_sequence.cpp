@@ -149,3 +149,22 @@ TEST_CASE("values lie in [0, 1)") {
         }
     }
 }
+
+TEST_CASE("fast sequence kernels equal their bit-by-bit definitions") {
+    using namespace tessera::sampling;
+    auto reverse_naive = [](uint32_t v) {
+        uint32_t r = 0;
+        for (int i = 0; i < 32; ++i) r |= ((v >> i) & 1u) << (31 - i);
+        return r;
+    };
+    uint32_t x = 0x12345678u;
+    for (int i = 0; i < 100000; ++i) {
+        x = mix_bits_32(x + uint32_t(i));
+        REQUIRE(reverse_bits_32(x) == reverse_naive(x));
+        REQUIRE(sobol_dim1(x) == sobol_dim1_reference(x));
+        REQUIRE(owen_sobol_dim0(x, x ^ 0x9e3779b9u) ==
+                owen_scramble_32(sobol_dim0(x), x ^ 0x9e3779b9u));
+    }
+    CHECK(sobol_dim1(0) == 0u);
+    CHECK(sobol_dim1(1) == 0x80000000u);
+}

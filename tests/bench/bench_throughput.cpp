@@ -1,0 +1,149 @@
+// Whole-render throughput next to the raw Embree ray rate of the same scene, in one run.
+//
+//   bench_throughput [--res N] [--spp N] [--threads N] [--reps N] SCENE...
+//
+// For each scene: (1) renders it with the path tracer on the tile scheduler and reports Mrays/s
+// and samples/s; (2) traces the same number of incoherent rays with raw Embree calls
+// (rtcIntersect1 / rtcOccluded1 on the scene's own BVH, camera rays then cosine bounces off the
+// geometric normal with one shadow ray per bounce, nothing else) on the same threads; prints
+// both rates and their ratio. Also prints film bytes per pixel. Repeats are interleaved
+// (render, raw, render, raw, ...) and the best of each is reported, so machine noise hits both.
+#include <embree3/rtcore.h>
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
+
+#include <atomic>
+#include <chrono>
+#include <cstdio>
+#include <cstring>
+#include <string>
+#include <vector>
+
+#include "renderer/render.h"
+#include "renderer/scene.h"
+#include "sampling/film.h"
+#include "sampling/sequence.h"
+#include "sampling/warp.h"
+
+using namespace tessera;
+
+namespace {
+
+double now_s() {
+    return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch())
+        .count();
+}
+
+/// Raw Embree: `bounces` closest-hit rays and as many shadow rays per camera sample.
+uint64_t raw_embree(const Scene &scene, int spp, int bounces, uint32_t threads) {
+    RTCScene rtc = scene.geometry->rtc_scene();
+    const int w = scene.settings.width, h = scene.settings.height;
+    Vec3f bmin = scene.geometry->bounds_min(), bmax = scene.geometry->bounds_max();
+    Vec3f light_target = (bmin + bmax) * 0.5f + Vec3f(0, 0.45f * (bmax.y - bmin.y), 0);
+    float eps = 1e-5f * length(bmax - bmin);
+    std::atomic<uint64_t> total{0};
+    tbb::task_arena arena(threads ? int(threads) : tbb::task_arena::automatic);
+    arena.execute([&] {
+        tbb::parallel_for(tbb::blocked_range<int>(0, h, 1), [&](const tbb::blocked_range<int> &r) {
+            uint64_t rays = 0;
+            RTCIntersectContext ctx;
+            rtcInitIntersectContext(&ctx);
+            for (int y = r.begin(); y < r.end(); ++y)
+                for (int x = 0; x < w; ++x)
+                    for (int s = 0; s < spp; ++s) {
+                        sampling::SobolSampler smp(1);
+                        smp.start_pixel_sample(uint32_t(x), uint32_t(y), uint32_t(s));
+                        Vec2f u = smp.get_pixel_2d();
+                        CameraRay cr =
+                            scene.camera->generate_ray({x + u.x, y + u.y}, {0.5f, 0.5f});
+                        Vec3f o = cr.ray.o, d = cr.ray.d;
+                        for (int b = 0; b < bounces; ++b) {
+                            RTCRayHit rh;
+                            rh.ray.org_x = o.x; rh.ray.org_y = o.y; rh.ray.org_z = o.z;
+                            rh.ray.dir_x = d.x; rh.ray.dir_y = d.y; rh.ray.dir_z = d.z;
+                            rh.ray.tnear = 0.f;
+                            rh.ray.tfar = kInfinity;
+                            rh.ray.mask = 0xFFFFFFFFu;
+                            rh.ray.flags = 0;
+                            rh.ray.time = 0.f;
+                            rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+                            rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+                            rtcIntersect1(rtc, &ctx, &rh);
+                            ++rays;
+                            if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) break;
+                            Vec3f n = normalize(Vec3f(rh.hit.Ng_x, rh.hit.Ng_y, rh.hit.Ng_z));
+                            if (dot(n, d) > 0) n = -n;
+                            Vec3f p = o + d * rh.ray.tfar + n * eps;
+                            // One shadow ray toward a fixed point near the top of the scene.
+                            RTCRay sr;
+                            Vec3f to = light_target - p;
+                            sr.org_x = p.x; sr.org_y = p.y; sr.org_z = p.z;
+                            sr.dir_x = to.x; sr.dir_y = to.y; sr.dir_z = to.z;
+                            sr.tnear = 0.f;
+                            sr.tfar = 0.999f;
+                            sr.mask = 0xFFFFFFFFu;
+                            sr.flags = 0;
+                            sr.time = 0.f;
+                            rtcOccluded1(rtc, &ctx, &sr);
+                            ++rays;
+                            Vec3f local = sampling::square_to_cosine_hemisphere(smp.get_2d());
+                            d = Frame::from_z(n).to_world(local);
+                            o = p;
+                        }
+                    }
+            total += rays;
+        });
+    });
+    return total.load();
+}
+
+}  // namespace
+
+int main(int argc, char **argv) {
+    int res = 256, spp = 16, reps = 3;
+    uint32_t threads = 0;
+    std::vector<std::string> scenes;
+    for (int i = 1; i < argc; ++i) {
+        std::string a = argv[i];
+        auto next = [&] { return i + 1 < argc ? std::atoi(argv[++i]) : 0; };
+        if (a == "--res") res = next();
+        else if (a == "--spp") spp = next();
+        else if (a == "--threads") threads = uint32_t(next());
+        else if (a == "--reps") reps = next();
+        else scenes.push_back(a);
+    }
+    if (scenes.empty()) {
+        std::fprintf(stderr, "usage: bench_throughput [--res N] [--spp N] [--threads N] SCENE...\n");
+        return 2;
+    }
+    std::printf("%-28s %10s %12s %12s %12s %8s\n", "scene", "rays/smp", "Msamples/s",
+                "Mrays/s", "raw Mrays/s", "ratio");
+    for (const std::string &path : scenes) {
+        SceneOverrides ov;
+        ov.width = ov.height = res;
+        ov.spp = spp;
+        auto scene = load_scene(path, ov);
+        double best_render = 1e30, best_raw = 1e30;
+        uint64_t rays = 0, samples = 0, raw_rays = 0;
+        for (int r = 0; r < reps; ++r) {
+            sampling::Film film{uint32_t(res), uint32_t(res)};
+            sched::RenderStats st = render_scene(*scene, film, threads, 0.0, true, nullptr);
+            rays = st.rays;
+            samples = st.samples;
+            best_render = std::min(best_render, st.wall_s);
+            int bounces = std::max(1, int(double(rays) / double(samples) / 2.0 + 0.5));
+            double t0 = now_s();
+            raw_rays = raw_embree(*scene, spp, bounces, threads);
+            best_raw = std::min(best_raw, now_s() - t0);
+        }
+        double mrays = double(rays) / best_render * 1e-6;
+        double raw_mrays = double(raw_rays) / best_raw * 1e-6;
+        std::string name = path.size() > 28 ? "..." + path.substr(path.size() - 25) : path;
+        std::printf("%-28s %10.2f %12.3f %12.2f %12.2f %8.2f\n", name.c_str(),
+                    double(rays) / double(samples), double(samples) / best_render * 1e-6, mrays,
+                    raw_mrays, mrays / raw_mrays);
+    }
+    std::printf("film: %zu bytes per pixel\n", sampling::Film::bytes_per_pixel());
+    return 0;
+}
