@@ -3,6 +3,7 @@
 #include <filesystem>
 
 #include "renderer/mesh_io.h"
+#include "renderer/obj_loader.h"
 
 namespace tessera {
 
@@ -22,23 +23,19 @@ Param make_param(const std::string &type, const std::string &name, std::vector<d
 
 Transform default_camera_from_world(Vec3f bmin, Vec3f bmax, float fov_deg) {
     Vec3f center = (bmin + bmax) * 0.5f;
-    float radius = std::max(length(bmax - bmin) * 0.5f, 1e-4f);
-    // Distance at which the bounding sphere fits the vertical field of view, with a margin.
-    float dist = 1.1f * radius / std::sin(radians(fov_deg) * 0.5f);
-    Vec3f eye{center.x, center.y, center.z + dist};
-    // camera x = world x, camera y = world y, camera z = -(world z - eye z): looking toward -z
-    // without mirroring the image (a handedness flip, as exporters from right-handed tools do).
-    Mat4 m;
-    m.m[0][3] = -eye.x;
-    m.m[1][3] = -eye.y;
-    m.m[2][2] = -1;
-    m.m[2][3] = eye.z;
-    return Transform(m);
+    float radius = 0.5f * length(bmax - bmin);
+    if (!(radius > 0)) radius = 1;
+    // The distance at which the field of view exactly frames the bounding sphere.
+    float distance = radius / std::sin(radians(0.5f * fov_deg));
+    Vec3f eye = center + Vec3f(0, 0, distance);
+    // pbrt is left-handed: Scale(-1, 1, 1) shows a right-handed model with +x to the right,
+    // as its authors saw it, without changing the geometry.
+    return Transform::scale(-1, 1, 1) * Transform::look_at(eye, center, Vec3f(0, 1, 0));
 }
 
 void add_default_view(SceneDesc &desc, Vec3f bmin, Vec3f bmax, bool has_emitters) {
     FileLoc loc{desc.main_file, 0};
-    const float fov = 40.f;
+    const float fov = kObjCameraFovDeg;
     if (!desc.camera.present) {
         desc.camera.present = true;
         desc.camera.type = "perspective";
@@ -50,8 +47,10 @@ void add_default_view(SceneDesc &desc, Vec3f bmin, Vec3f bmax, bool has_emitters
         desc.film.present = true;
         desc.film.type = "rgb";
         desc.film.loc = loc;
-        desc.film.params.params.push_back(make_param("integer", "xresolution", {512}, loc));
-        desc.film.params.params.push_back(make_param("integer", "yresolution", {512}, loc));
+        double res = kObjFilmResolution;
+        desc.film.params.params.push_back(make_param("integer", "xresolution", {res}, loc));
+        desc.film.params.params.push_back(make_param("integer", "yresolution", {res}, loc));
+        // `tessera render model.obj` writes model.exr and model.png in the current folder.
         Param f;
         f.type = "string";
         f.name = "filename";
@@ -60,20 +59,20 @@ void add_default_view(SceneDesc &desc, Vec3f bmin, Vec3f bmax, bool has_emitters
         desc.film.params.params.push_back(f);
     }
     if (!has_emitters && desc.lights.empty()) {
-        LightDesc sky;
-        sky.type = "infinite";
-        sky.loc = loc;
-        sky.params.params.push_back(make_param("rgb", "L", {0.25, 0.25, 0.25}, loc));
-        desc.lights.push_back(sky);
+        std::string base_dir = std::filesystem::path(desc.main_file).parent_path().string();
+        LightDesc env;
+        env.type = "infinite";
+        env.loc = loc;
+        env.base_dir = base_dir;
+        env.params.params.push_back(make_param("rgb", "L", {0.5, 0.5, 0.5}, loc));
+        desc.lights.push_back(env);
         LightDesc key;
         key.type = "distant";
         key.loc = loc;
-        key.params.params.push_back(make_param("rgb", "L", {3, 3, 3}, loc));
-        Vec3f c = (bmin + bmax) * 0.5f;
-        float r = std::max(length(bmax - bmin), 1e-3f);
-        key.params.params.push_back(
-            make_param("point3", "from", {c.x - 0.5 * r, c.y + r, c.z + r}, loc));
-        key.params.params.push_back(make_param("point3", "to", {c.x, c.y, c.z}, loc));
+        key.base_dir = base_dir;
+        key.params.params.push_back(make_param("point3", "from", {1, 2, 2}, loc));
+        key.params.params.push_back(make_param("point3", "to", {0, 0, 0}, loc));
+        key.params.params.push_back(make_param("rgb", "L", {1.5, 1.5, 1.5}, loc));
         desc.lights.push_back(key);
     }
 }

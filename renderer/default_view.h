@@ -6,13 +6,15 @@
 namespace tessera {
 
 /// Camera-from-world for a camera in front of the box [bmin, bmax] (on its +z side, looking
-/// toward -z, +y up) framing its bounding sphere with vertical fov `fov_deg`. World +x appears
-/// on the right of the image, as a viewer of a right-handed (OBJ) model expects.
+/// toward -z, +y up) whose field of view `fov_deg` exactly frames the box's bounding sphere.
+/// World +x appears on the right of the image, as a viewer of a right-handed (OBJ) model
+/// expects: Scale(-1, 1, 1) * LookAt(...).
 Transform default_camera_from_world(Vec3f bmin, Vec3f bmax, float fov_deg);
 
-/// Fills desc.camera ("perspective", fov 40) and desc.film (512x512, "tessera.exr") when
-/// absent, and, when `has_emitters` is false, adds a dim uniform "infinite" light (L 0.25) and
-/// a "distant" key light (L 3) from the upper front left. Thread-safe (pure).
+/// Fills desc.camera ("perspective", fov kObjCameraFovDeg) and desc.film (kObjFilmResolution
+/// squared, filename "<scene stem>.exr") when absent, and, when `has_emitters` is false and the
+/// scene has no lights, adds an "infinite" light with uniform L 0.5 and a "distant" key light
+/// L 1.5 from direction (1, 2, 2) toward the origin. Thread-safe (pure).
 void add_default_view(SceneDesc &desc, Vec3f bmin, Vec3f bmax, bool has_emitters);
 
 /// A SceneDesc holding one "plymesh" shape for the file at `path` (diffuse 0.5), with the

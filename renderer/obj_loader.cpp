@@ -1,6 +1,8 @@
 // OBJ + MTL -> SceneDesc (see obj_loader.h for the mapping and its sources).
 #include "renderer/obj_loader.h"
 
+#include "renderer/default_view.h"
+
 #include <tiny_obj_loader.h>
 
 #include <filesystem>
@@ -246,43 +248,8 @@ SceneDesc load_obj_scene(const std::string &path) {
     }
     if (scene.shapes.empty()) throw SceneError(path + ": OBJ file has no faces");
 
-    // Camera: frame the bounding sphere from the +z side (see obj_loader.h).
-    Vec3f centre = 0.5f * (lo + hi);
-    float radius = 0.5f * length(hi - lo);
-    if (!(radius > 0)) radius = 1;
-    float distance = radius / std::sin(radians(0.5f * kObjCameraFovDeg));
-    Vec3f eye = centre + Vec3f(0, 0, distance);
-    scene.camera_from_world =
-        Transform::scale(-1, 1, 1) * Transform::look_at(eye, centre, Vec3f(0, 1, 0));
-    scene.camera.type = "perspective";
-    scene.camera.loc = loc;
-    scene.camera.present = true;
-    scene.camera.params.params.push_back(
-        make_param("float", "fov", {double(kObjCameraFovDeg)}, loc));
-    scene.film.type = "rgb";
-    scene.film.loc = loc;
-    scene.film.present = true;
-    scene.film.params.params.push_back(
-        make_param("integer", "xresolution", {double(kObjFilmResolution)}, loc));
-    scene.film.params.params.push_back(
-        make_param("integer", "yresolution", {double(kObjFilmResolution)}, loc));
-
-    if (!any_emitter) {
-        LightDesc env;
-        env.type = "infinite";
-        env.loc = loc;
-        env.base_dir = base_dir;
-        env.params.params.push_back(make_param("rgb", "L", {0.5, 0.5, 0.5}, loc));
-        scene.lights.push_back(env);
-        LightDesc key;
-        key.type = "distant";
-        key.loc = loc;
-        key.base_dir = base_dir;
-        key.params.params.push_back(make_param("point3", "from", {1, 2, 2}, loc));
-        key.params.params.push_back(make_param("point3", "to", {0, 0, 0}, loc));
-        key.params.params.push_back(make_param("rgb", "L", {1.5, 1.5, 1.5}, loc));
-        scene.lights.push_back(key);
-    }
+    // Camera, film and (without emitters) lights: see obj_loader.h and default_view.h.
+    add_default_view(scene, lo, hi, any_emitter);
     return scene;
 }
 

@@ -1,0 +1,201 @@
+#!/usr/bin/env bash
+# CLI contract tests for `tessera` (run by ctest, one case per test):
+#
+#   tests/cli/cli_contract.sh /path/to/tessera CASE
+#
+# Bad input must exit with code 2, print "file:line: message" on stderr and leave no output
+# file behind (no EXR, no PNG, no stats JSON, no *.tmp-* temporary). A good scene must exit 0 and
+# write EXR + PNG + the --stats JSON. Every case works in its own temporary folder, removed on
+# exit. Prints "PASS" or "FAIL: why" and exits 0 / 1.
+set -uo pipefail
+
+tessera="${1:?usage: cli_contract.sh TESSERA CASE}"
+case_name="${2:?usage: cli_contract.sh TESSERA CASE}"
+[[ -x "$tessera" ]] || { echo "FAIL: $tessera is not an executable"; exit 1; }
+
+tmp="$(mktemp -d "${TMPDIR:-/tmp}/tessera-cli-XXXXXX")"
+trap 'rm -rf "$tmp"' EXIT
+cd "$tmp" || exit 1
+
+fail() {
+    echo "FAIL [$case_name]: $*"
+    if [[ -s stdout.txt ]]; then echo "--- stdout"; cat stdout.txt; fi
+    if [[ -s stderr.txt ]]; then echo "--- stderr"; cat stderr.txt; fi
+    exit 1
+}
+
+# run ARGS...: runs tessera with a time limit, stdout/stderr captured, sets $rc.
+run() {
+    timeout 60 "$tessera" "$@" >stdout.txt 2>stderr.txt
+    rc=$?
+    if [[ $rc -eq 124 ]]; then fail "tessera $* did not finish within 60 s"; fi
+}
+
+expect_rc() {
+    [[ $rc -eq $1 ]] || fail "expected exit code $1, got $rc"
+}
+
+# expect_stderr_line REGEX: some line of stderr matches the (extended) regex.
+expect_stderr_line() {
+    grep -Eq -- "$1" stderr.txt || fail "no stderr line matches /$1/"
+}
+
+# expect_no_output STEM: neither STEM.exr, STEM.png, out.json nor any *.tmp-* exists.
+expect_no_output() {
+    local stem="$1"
+    for f in "$stem.exr" "$stem.png" out.json; do
+        [[ ! -e "$f" ]] || fail "bad input left an output file behind: $f"
+    done
+    local leftovers
+    leftovers="$(find . -name '*.tmp-*' -print)"
+    [[ -z "$leftovers" ]] || fail "temporary files left behind: $leftovers"
+}
+
+# A tiny scene: 16x16, 4 spp, a diffuse quad lit by a quad area light. Line numbers of the
+# bad variants below refer to this layout, so keep it stable.
+write_good_scene() {
+    cat >"$1" <<'PBRT'
+LookAt 0 0 -3  0 0 0  0 1 0
+Camera "perspective" "float fov" [ 45 ]
+Film "rgb" "integer xresolution" [ 16 ] "integer yresolution" [ 16 ]
+    "string filename" [ "fromscene.exr" ]
+Sampler "zsobol" "integer pixelsamples" [ 4 ]
+WorldBegin
+AttributeBegin
+  AreaLightSource "diffuse" "rgb L" [ 4 4 4 ]
+  Shape "trianglemesh" "point3 P" [ -0.5 1 -0.5  0.5 1 -0.5  0.5 1 0.5  -0.5 1 0.5 ]
+      "integer indices" [ 0 1 2  0 2 3 ]
+AttributeEnd
+Material "diffuse" "rgb reflectance" [ 0.5 0.5 0.5 ]
+Shape "trianglemesh" "point3 P" [ -1 -1 1  1 -1 1  1 1 1  -1 1 1 ]
+    "integer indices" [ 0 1 2  0 2 3 ]
+PBRT
+}
+
+# Writes the good scene with line $2 replaced by $3.
+write_scene_with_line() {
+    write_good_scene "$1.orig"
+    awk -v n="$2" -v s="$3" 'NR == n { print s; next } { print }' "$1.orig" >"$1"
+    rm -f "$1.orig"
+}
+
+bad_render() {
+    # bad_render SCENE: renders to out.exr with stats; expects exit 2 and no output.
+    run render "$1" -o out.exr --stats out.json --spp 1 -q
+    expect_rc 2
+    expect_no_output out
+}
+
+case "$case_name" in
+missing_scene)
+    run render "$tmp/nope.pbrt" -o out.exr --stats out.json -q
+    expect_rc 2
+    expect_stderr_line "^$tmp/nope\\.pbrt:[0-9]+: "
+    expect_no_output out
+    ;;
+syntax_error)
+    # Line 12: a number expected, a word found.
+    write_scene_with_line scene.pbrt 12 'Translate 0 0 oops'
+    bad_render scene.pbrt
+    expect_stderr_line '^[^ ]*scene\.pbrt:12: .*oops'
+    ;;
+unterminated_string)
+    # The error names the line where the string starts.
+    write_scene_with_line scene.pbrt 12 'Material "diffuse'
+    bad_render scene.pbrt
+    expect_stderr_line '^[^ ]*scene\.pbrt:12: .*unterminated string'
+    ;;
+unknown_directive)
+    write_scene_with_line scene.pbrt 12 'Frobnicate "diffuse"'
+    bad_render scene.pbrt
+    expect_stderr_line "^[^ ]*scene\\.pbrt:12: .*Frobnicate"
+    ;;
+unknown_material)
+    # An undefined named material: pbrt reports it at the shape that uses it (line 13).
+    write_scene_with_line scene.pbrt 12 'NamedMaterial "nosuchmaterial"'
+    bad_render scene.pbrt
+    expect_stderr_line '^[^ ]*scene\.pbrt:1[23]: .*nosuchmaterial'
+    ;;
+missing_ply)
+    write_scene_with_line scene.pbrt 13 'Shape "plymesh" "string filename" [ "meshes/missing.ply" ]'
+    # Line 14 held the rest of the replaced trianglemesh; make it a comment.
+    sed -i '14s/^/# /' scene.pbrt
+    bad_render scene.pbrt
+    expect_stderr_line '^[^ ]*scene\.pbrt:13: .*missing\.ply'
+    ;;
+bad_resolution)
+    write_good_scene scene.pbrt
+    for r in abc 0x16 16x 16x-4 -3x3; do
+        run render scene.pbrt -o out.exr --stats out.json --resolution "$r" -q
+        expect_rc 2
+        expect_stderr_line '--resolution'
+        expect_no_output out
+    done
+    ;;
+good_scene)
+    write_good_scene scene.pbrt
+    run render scene.pbrt -o out.exr --stats out.json --threads 2 -q
+    expect_rc 0
+    for f in out.exr out.png out.json; do [[ -s "$f" ]] || fail "$f was not written"; done
+    leftovers="$(find . -name '*.tmp-*' -print)"
+    [[ -z "$leftovers" ]] || fail "temporary files left behind: $leftovers"
+    python3 - out.json <<'PY' || fail "stats JSON check failed"
+import json, math, sys
+s = json.load(open(sys.argv[1]))
+missing = [k for k in ("wall_s", "samples", "rays", "spp", "nan_count", "threads") if k not in s]
+assert not missing, f"missing keys {missing}"
+assert s["spp"] == 4, s["spp"]
+assert s["samples"] == 16 * 16 * 4, s["samples"]
+assert s["rays"] >= s["samples"], (s["rays"], s["samples"])
+assert s["nan_count"] == 0, s["nan_count"]
+assert s["threads"] >= 1, s["threads"]
+assert math.isfinite(s["wall_s"]) and s["wall_s"] >= 0, s["wall_s"]
+PY
+    # Without -o the scene's Film "filename" is used (relative to the current folder).
+    run render scene.pbrt --spp 1 -q
+    expect_rc 0
+    [[ -s fromscene.exr && -s fromscene.png ]] || fail "Film \"filename\" was not used"
+    ;;
+diff_same)
+    write_good_scene scene.pbrt
+    run render scene.pbrt -o a.exr -q
+    expect_rc 0
+    run diff a.exr a.exr
+    expect_rc 0
+    awk '$1 == "MSE" { found = 1; for (i = 2; i <= NF; ++i) if ($i + 0 != 0) bad = 1 }
+         END { exit !(found && !bad) }' stdout.txt || fail "diff of an image with itself: MSE not 0"
+    ;;
+diff_size_mismatch)
+    write_good_scene scene.pbrt
+    run render scene.pbrt -o a.exr --no-png -q
+    expect_rc 0
+    run render scene.pbrt -o b.exr --no-png --resolution 8x8 -q
+    expect_rc 0
+    run diff a.exr b.exr
+    expect_rc 2
+    ;;
+diff_missing_file)
+    run diff nope-a.exr nope-b.exr
+    expect_rc 2
+    ;;
+version)
+    run --version
+    expect_rc 0
+    grep -Eq '^tessera [0-9]+\.[0-9]+' stdout.txt || fail "--version does not print the version"
+    ;;
+unwritable_output)
+    write_good_scene scene.pbrt
+    # A render at this size would take minutes: the check must come before it.
+    start=$SECONDS
+    run render scene.pbrt -o /nonexistent/dir/x.exr --stats out.json \
+        --resolution 4096x4096 --spp 4096 -q
+    expect_rc 2
+    expect_stderr_line '^/nonexistent/dir/x\.exr(:[0-9]+)?: '
+    (( SECONDS - start < 20 )) || fail "took $((SECONDS - start)) s: the output folder was not checked before rendering"
+    [[ ! -e out.json ]] || fail "stats were written although the render failed"
+    ;;
+*)
+    fail "unknown case"
+    ;;
+esac
+echo "PASS [$case_name]"
