@@ -9,14 +9,9 @@ namespace tessera {
 
 namespace {
 
-Param make_param(const std::string &type, const std::string &name, std::vector<double> nums,
+Param make_param(const std::string &type, const std::string &name, std::vector<double> numbers,
                  const FileLoc &loc) {
-    Param p;
-    p.type = type;
-    p.name = name;
-    p.numbers = std::move(nums);
-    p.loc = loc;
-    return p;
+    return Param::numeric(type, name, std::move(numbers), loc);
 }
 
 }  // namespace

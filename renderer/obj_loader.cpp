@@ -18,12 +18,7 @@ namespace {
 
 Param make_param(const std::string &type, const std::string &name, std::vector<double> numbers,
                  const FileLoc &loc) {
-    Param p;
-    p.type = type;
-    p.name = name;
-    p.numbers = std::move(numbers);
-    p.loc = loc;
-    return p;
+    return Param::numeric(type, name, std::move(numbers), loc);
 }
 
 Param make_string(const std::string &type, const std::string &name, const std::string &value,

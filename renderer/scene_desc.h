@@ -53,6 +53,17 @@ struct Param {
     std::vector<uint8_t> bools;         ///< bool values (1 = true)
     FileLoc loc;
     mutable bool used = false;
+
+    /// A numeric parameter made by a loader (OBJ, defaults) rather than read from a file.
+    static Param numeric(const std::string &type, const std::string &name,
+                         std::vector<double> numbers, const FileLoc &loc) {
+        Param p;
+        p.type = type;
+        p.name = name;
+        p.numbers = std::move(numbers);
+        p.loc = loc;
+        return p;
+    }
 };
 
 /// A parameter list with typed lookups. Every lookup marks the parameter used, so that

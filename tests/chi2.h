@@ -205,6 +205,31 @@ inline double chi2_p_value(double x, int dof) {
     return std::clamp(detail::gamma_q_fraction(a, xx), 0.0, 1.0);
 }
 
+/// Pearson's chi-square p-value of observed vs expected counts; bins whose expected count is
+/// below 5 are pooled into one; a sample in a bin of zero expected count gives p = 0.
+inline double chi2_counts_p_value(const std::vector<double> &obs, const std::vector<double> &exp) {
+    double stat = 0, pool_o = 0, pool_e = 0;
+    int bins = 0;
+    for (size_t i = 0; i < obs.size(); ++i) {
+        if (exp[i] <= 0) {
+            if (obs[i] > 0) return 0.0;
+            continue;
+        }
+        if (exp[i] < 5) {
+            pool_o += obs[i];
+            pool_e += exp[i];
+            continue;
+        }
+        stat += (obs[i] - exp[i]) * (obs[i] - exp[i]) / exp[i];
+        ++bins;
+    }
+    if (pool_e > 0) {
+        stat += (pool_o - pool_e) * (pool_o - pool_e) / pool_e;
+        ++bins;
+    }
+    return chi2_p_value(stat, bins - 1);
+}
+
 /// Integrates `pdf` over each (theta, phi) bin of the sphere. Returns theta_bins * phi_bins
 /// probabilities, row-major in theta; their sum is the integral of the pdf over the sphere.
 inline std::vector<double> integrate_pdf_bins(const DirectionPdf &pdf, int theta_bins, int phi_bins,

@@ -19,30 +19,8 @@ namespace {
 constexpr int kNumChi2Tests = 7;  // chi-square tests in this file
 constexpr double kAlpha = 0.01 / kNumChi2Tests;
 
-/// Pearson's chi-square of observed vs expected counts; bins with expected < 5 are pooled.
-/// Returns the p-value. A sample in a bin of zero expected count gives p = 0.
 double chi2_p(const std::vector<double> &obs, const std::vector<double> &exp) {
-    double stat = 0, pool_o = 0, pool_e = 0;
-    int bins = 0;
-    for (size_t i = 0; i < obs.size(); ++i) {
-        if (exp[i] <= 0) {
-            if (obs[i] > 0)
-                return 0.0;
-            continue;
-        }
-        if (exp[i] < 5) {
-            pool_o += obs[i];
-            pool_e += exp[i];
-            continue;
-        }
-        stat += (obs[i] - exp[i]) * (obs[i] - exp[i]) / exp[i];
-        ++bins;
-    }
-    if (pool_e > 0) {
-        stat += (pool_o - pool_e) * (pool_o - pool_e) / pool_e;
-        ++bins;
-    }
-    return tessera::test::chi2_p_value(stat, bins - 1);
+    return tessera::test::chi2_counts_p_value(obs, exp);
 }
 
 }  // namespace
