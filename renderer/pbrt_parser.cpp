@@ -393,9 +393,11 @@ Param Parser::parse_param(Tokenizer &tok, const Token &decl, const std::string &
                 bool sensor = s.starts_with("canon_") || s.starts_with("nikon_") ||
                               s.starts_with("sony_") || s.starts_with("hasselblad_");
                 std::string text;
-                std::string path = join(dir, s);
+                // pbrt-v4 resolves relative names against the main file's directory; the
+                // including file's directory is a fallback.
+                std::string path = join(main_dir_, s);
                 if (!sensor && !read_text_file(path, &text) &&
-                    !read_text_file(join(main_dir_, s), &text))
+                    !read_text_file(path = join(dir, s), &text))
                     throw SceneError(p.loc, "spectrum \"" + s +
                                                 "\" is neither a named spectrum nor a readable "
                                                 "file");
@@ -614,9 +616,14 @@ void Parser::parse(Tokenizer &tok, const std::string &dir, int depth) {
             std::string name = expect_string(tok, d);
             if (depth + 1 > kMaxIncludeDepth)
                 throw SceneError(loc, d + " nested too deeply (recursive include?)");
-            std::string path = join(dir, name), text;
+            if (name.ends_with(".gz"))
+                throw SceneError(loc, d + " file \"" + name +
+                                          "\" is gzip-compressed; decompress it (gunzip) first");
+            // pbrt-v4 resolves relative names against the main file's directory (its search
+            // directory); the including file's directory is a fallback.
+            std::string path = join(main_dir_, name), text;
             if (!read_text_file(path, &text)) {
-                std::string alt = join(main_dir_, name);
+                std::string alt = join(dir, name);
                 if (alt == path || !read_text_file(alt, &text))
                     throw SceneError(loc, "cannot open " + d + " file \"" + name + "\"");
                 path = alt;
@@ -631,7 +638,7 @@ void Parser::parse(Tokenizer &tok, const std::string &dir, int depth) {
             m.params = parse_params(tok, dir);
             merge_defaults(m.params, state_.material_attrs);
             m.loc = loc;
-            m.base_dir = dir;
+            m.base_dir = main_dir_;  // pbrt-v4: relative to the main file
             const Param *type = m.params.find("type");
             if (!type || type->type != "string" || type->strings.size() != 1)
                 throw SceneError(loc, "MakeNamedMaterial \"" + name +
@@ -649,7 +656,7 @@ void Parser::parse(Tokenizer &tok, const std::string &dir, int depth) {
             m.params = parse_params(tok, dir);
             merge_defaults(m.params, state_.material_attrs);
             m.loc = loc;
-            m.base_dir = dir;
+            m.base_dir = main_dir_;  // pbrt-v4: relative to the main file
             m.name = "anonymous#" + std::to_string(++anonymous_materials_);
             state_.material = m.name;
             scene_.materials.emplace(m.name, std::move(m));
@@ -673,7 +680,7 @@ void Parser::parse(Tokenizer &tok, const std::string &dir, int depth) {
             merge_defaults(tx.params, state_.texture_attrs);
             tx.loc = loc;
             tx.render_from_texture = state_.ctm;
-            tx.base_dir = dir;
+            tx.base_dir = main_dir_;  // pbrt-v4: relative to the main file
             std::string key = tx.value_type + ":" + tx.name;
             if (auto it = texture_index_.find(key); it != texture_index_.end())
                 throw SceneError(loc, tx.value_type + " texture \"" + tx.name +
@@ -689,7 +696,7 @@ void Parser::parse(Tokenizer &tok, const std::string &dir, int depth) {
             merge_defaults(l.params, state_.light_attrs);
             l.loc = loc;
             l.render_from_light = state_.ctm;
-            l.base_dir = dir;
+            l.base_dir = main_dir_;  // pbrt-v4: relative to the main file
             if (current_object_)
                 warn(loc, "LightSource inside ObjectBegin applies to the world, not to "
                           "instances");
@@ -710,7 +717,7 @@ void Parser::parse(Tokenizer &tok, const std::string &dir, int depth) {
             s.render_from_object = state_.ctm;
             s.reverse_orientation = state_.reverse_orientation;
             s.material = state_.material;
-            s.base_dir = dir;
+            s.base_dir = main_dir_;  // pbrt-v4: relative to the main file
             if (!state_.area_light_type.empty()) {
                 if (current_object_) {
                     warn(loc, "area lights are not supported with object instancing; the "

@@ -32,10 +32,12 @@
 //  - Attribute "shape"|"light"|"material"|"texture"|"medium" params: default parameters that
 //    are appended to each later entity of that kind (in the current attribute scope) unless the
 //    entity gives the same parameter name itself.
-//  - Relative file names: each entity's base_dir is the directory of the file that declared it.
-//    Include/Import look for the file first relative to the including file's directory, then
-//    relative to the main file's directory (pbrt-v4 resolves everything against the main file's
-//    directory; for files in the main folder the two agree). Import == Include here.
+//  - Relative file names: as in pbrt-v4 (ResolveFilename with one search directory), every
+//    entity's base_dir is the directory of the MAIN scene file, whichever file declared it.
+//    Include/Import and spectrum files look relative to the main file's directory first, then
+//    relative to the including file's directory (a fallback for scenes that assume it; the
+//    scene builder does the same for plymesh files). Import == Include here. Gzip-compressed
+//    includes are reported as unsupported.
 //  - Parameter types are canonicalised: "point" -> "point3", "vector" -> "vector3",
 //    "normal3" -> "normal", "color" -> "rgb" (with a warning). A `"spectrum"` parameter naming a
 //    file is read at parse time and stored as (lambda, value) numbers; a named spectrum stays a

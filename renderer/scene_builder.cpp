@@ -48,10 +48,17 @@ std::string Scene::describe() const {
 
 namespace {
 
-std::string resolve(const std::string &base_dir, const std::string &file) {
+/// A relative file name against the main file's directory (pbrt-v4), falling back to the
+/// directory of the file that named it.
+std::string resolve(const std::string &base_dir, const FileLoc &loc, const std::string &file) {
     fs::path p(file);
-    if (p.is_absolute() || base_dir.empty()) return p.string();
-    return (fs::path(base_dir) / p).string();
+    if (p.is_absolute()) return p.string();
+    fs::path main = base_dir.empty() ? p : fs::path(base_dir) / p;
+    std::error_code ec;
+    if (fs::exists(main, ec)) return main.string();
+    fs::path alt = fs::path(loc.file).parent_path() / p;
+    if (fs::exists(alt, ec)) return alt.string();
+    return main.string();
 }
 
 void apply_settings(const SceneDesc &d, const SceneOverrides &ov, Scene &sc) {
@@ -179,7 +186,13 @@ std::optional<TriangleMesh> triangles_of(const ShapeDesc &sd, const Transform &x
     std::vector<Vec3f> p, n;
     std::vector<Vec2f> uv;
     std::vector<int> idx;
-    if (sd.type == "trianglemesh") {
+    if (sd.type == "trianglemesh" || sd.type == "loopsubdiv") {
+        if (sd.type == "loopsubdiv") {
+            // TODO(tessera): Loop subdivision (pbrt-v4 LoopSubdivide); until then the control
+            // mesh is rendered, which is coarser and faceted.
+            warn(sd.loc, "\"loopsubdiv\" is rendered as its control mesh (no subdivision)");
+            (void)ps.get_int("levels", 3);
+        }
         p = ps.get_point3s("P");
         idx = ps.get_ints("indices");
         n = ps.get_normals("N");
@@ -194,7 +207,7 @@ std::optional<TriangleMesh> triangles_of(const ShapeDesc &sd, const Transform &x
         for (const char *ig : {"S", "faceIndices"})
             if (const Param *x = ps.find(ig)) x->used = true;
     } else if (sd.type == "plymesh") {
-        std::string file = resolve(sd.base_dir, ps.get_string("filename", ""));
+        std::string file = resolve(sd.base_dir, sd.loc, ps.get_string("filename", ""));
         MeshData md = load_ply(file);
         p = std::move(md.p);
         n = std::move(md.n);
@@ -231,12 +244,24 @@ std::optional<TriangleMesh> triangles_of(const ShapeDesc &sd, const Transform &x
             // orientation of dpdu x dpdv.
             idx.insert(idx.end(), {v00, v10, v11, v00, v11, v01});
         }
-        if (uv.empty() && p.size() == 4 && quads.size() == 4) {
-            uv.assign(4, Vec2f());
-            uv[size_t(quads[0])] = {0, 0};
-            uv[size_t(quads[1])] = {1, 0};
-            uv[size_t(quads[2])] = {0, 1};
-            uv[size_t(quads[3])] = {1, 1};
+        if (uv.empty()) {
+            // pbrt-v4 gives every patch its own parametric (0,0),(1,0),(0,1),(1,1): unshare the
+            // vertices so that each patch's triangles carry those uvs.
+            std::vector<Vec3f> p2, n2;
+            std::vector<int> idx2;
+            for (size_t q = 0; q + 3 < quads.size(); q += 4) {
+                int base = int(p2.size());
+                const Vec2f corner[4] = {{0, 0}, {1, 0}, {0, 1}, {1, 1}};
+                for (int c = 0; c < 4; ++c) {
+                    p2.push_back(p[size_t(quads[q + size_t(c)])]);
+                    if (!n.empty() && n.size() == p.size()) n2.push_back(n[size_t(quads[q + size_t(c)])]);
+                    uv.push_back(corner[c]);
+                }
+                idx2.insert(idx2.end(), {base, base + 1, base + 3, base, base + 3, base + 2});
+            }
+            p = std::move(p2);
+            n = std::move(n2);
+            idx = std::move(idx2);
         }
     } else {
         return std::nullopt;
@@ -262,7 +287,10 @@ std::optional<TriangleMesh> triangles_of(const ShapeDesc &sd, const Transform &x
     for (Vec3f v : n) {
         Vec3f w = xf.normal(v);
         float l = length(w);
-        m.n.push_back(l > 0 ? w / l : w);
+        w = l > 0 ? w / l : w;
+        // pbrt-v4's TriangleMesh/BilinearPatchMesh negate N under ReverseOrientation (N then
+        // decides the geometric normal's side, and so the emitting side).
+        m.n.push_back(sd.reverse_orientation ? -w : w);
     }
     m.uv = std::move(uv);
     m.indices.assign(idx.begin(), idx.end());
@@ -372,7 +400,9 @@ struct Builder {
             return;
         }
         float r = q.radius * sx;
-        float area = q.kind == Quadric::Kind::Sphere ? 4 * kPi * r * r : kPi * r * r;
+        // pbrt-v4's Sphere::Area()/Disk::Area() are object-space: "power" ignores the scale.
+        float area = q.kind == Quadric::Kind::Sphere ? 4 * kPi * q.radius * q.radius
+                                                     : kPi * q.radius * q.radius;
         AreaEmission em = make_area_emission(*sd.area_light, sd.area_light_loc, area);
         sd.area_light->report_unused("AreaLightSource");
         if (em.L.is_black()) return;

@@ -117,7 +117,8 @@ struct ShapeDesc {
     std::optional<ParamSet> area_light;  ///< AreaLightSource "diffuse" params when emissive
     FileLoc area_light_loc;
     std::string area_light_type;
-    /// Directory of the file that declared the shape (relative file names resolve against it).
+    /// Directory relative file names resolve against: the main scene file's (pbrt-v4); the
+    /// declaring file's directory (loc.file) is the builder's fallback.
     std::string base_dir;
 };
 

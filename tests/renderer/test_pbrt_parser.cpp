@@ -324,7 +324,7 @@ ObjectInstance "thing"
     CHECK(s.shapes[0].render_from_object.is_identity());
 }
 
-TEST_CASE("Include resolves relative to the including file") {
+TEST_CASE("Include resolves relative to the main file, then to the including file") {
     auto dir = temp_dir("include");
     write_file(dir / "main.pbrt", "WorldBegin\nInclude \"sub/a.pbrt\"\nShape \"sphere\"\n");
     write_file(dir / "sub" / "a.pbrt", "Translate 1 0 0\nImport \"b.pbrt\"\n");
@@ -336,7 +336,8 @@ TEST_CASE("Include resolves relative to the including file") {
     CHECK(s.shapes[0].type == "disk");
     CHECK(s.shapes[0].loc.file == (dir / "sub" / "b.pbrt").string());
     CHECK(s.shapes[0].loc.line == 3);
-    CHECK(s.shapes[0].base_dir == (dir / "sub").string());
+    // pbrt-v4: entity file names resolve against the main file's directory.
+    CHECK(s.shapes[0].base_dir == dir.string());
     CHECK(s.shapes[0].params.find("s")->numbers == std::vector<double>{400, 0.5, 700, 0.5});
     // Include is textual: the graphics state carries over.
     check_vec(s.shapes[1].render_from_object.point({0, 0, 0}), {1, 0, 0});
@@ -484,4 +485,20 @@ TEST_CASE("Bitterli's Cornell box (shared scene)") {
         CHECK(sh.material == "Light");
     }
     CHECK(emissive == 1);
+}
+
+TEST_CASE("Include inside an included file resolves against the main file's directory first") {
+    // The layout of pbrt-v4-scenes' sanmiguel: geometry/geom.pbrt includes "geometry/part.pbrt".
+    auto dir = temp_dir("include_main_first");
+    write_file(dir / "main.pbrt", "WorldBegin\nInclude \"geometry/geom.pbrt\"\n");
+    write_file(dir / "geometry" / "geom.pbrt", "Include \"geometry/part.pbrt\"\n");
+    write_file(dir / "geometry" / "part.pbrt", "Shape \"sphere\"\n");
+    SceneDesc s = parse_pbrt_file((dir / "main.pbrt").string());
+    REQUIRE(s.shapes.size() == 1);
+    CHECK(s.shapes[0].loc.file == (dir / "geometry" / "part.pbrt").string());
+    CHECK(s.shapes[0].base_dir == dir.string());
+    // A gzip-compressed include is reported clearly.
+    write_file(dir / "gz.pbrt", "WorldBegin\nInclude \"x.pbrt.gz\"\n");
+    CHECK_THROWS_WITH(parse_pbrt_file((dir / "gz.pbrt").string()),
+                      doctest::Contains("gz.pbrt:2: Include file \"x.pbrt.gz\" is gzip-compressed"));
 }
