@@ -491,7 +491,7 @@ struct PreparedImage {
 
 /// Linearises `path` into a cached mipmapped texture unless it already is a linear one.
 PreparedImage prepare_image(const std::string &path, const std::string &encoding_param,
-                            const FileLoc &loc) {
+                            const FileLoc &loc, bool scalar) {
     auto in = OIIO::ImageInput::open(path);
     if (!in) throw SceneError(loc, path + ": cannot open image: " + OIIO::geterror());
     OIIO::ImageSpec spec = in->spec();
@@ -509,14 +509,18 @@ PreparedImage prepare_image(const std::string &path, const std::string &encoding
                       "\" ignored for a floating-point image (always linear)");
         enc = Encoding{};
     }
-    const int out_channels = spec.nchannels >= 3 ? 3 : 1;
-    if (enc.kind == Encoding::Linear && spec.tile_width > 0 && levels > 1)
+    // Float textures of colour images follow pbrt-v4's MIPMap lookups of Float: the average of
+    // R, G and B, or the alpha channel of an RGBA image whose alpha is not all 1 (cut-out masks).
+    const bool scalar_from_colour = scalar && spec.nchannels >= 3;
+    const int out_channels = scalar_from_colour ? 1 : (spec.nchannels >= 3 ? 3 : 1);
+    if (enc.kind == Encoding::Linear && spec.tile_width > 0 && levels > 1 && !scalar_from_colour)
         return {path, spec.nchannels};
 
     // The key hashes the file's bytes (not its name or date), so a rewritten but identical
     // image, or the same image in two folders, shares one cache entry.
     std::string key = "tessera-texcache-v1|" + std::to_string(file_hash(path, loc)) + "|" +
-                      enc.name() + "|" + std::to_string(out_channels);
+                      enc.name() + "|" + std::to_string(out_channels) +
+                      (scalar_from_colour ? "|scalar" : "");
     std::error_code ec;
     char hex[17];
     std::snprintf(hex, sizeof(hex), "%016llx", (unsigned long long)fnv1a(key));
@@ -539,13 +543,38 @@ PreparedImage prepare_image(const std::string &path, const std::string &encoding
     out_spec.z_channel = -1;
     out_spec.set_format(OIIO::TypeDesc::FLOAT);
     OIIO::ROI roi = src.roi();
-    roi.chbegin = 0;
-    roi.chend = out_channels;
-    std::vector<float> pixels(size_t(roi.npixels()) * out_channels);
-    if (!src.get_pixels(roi, OIIO::TypeDesc::FLOAT, pixels.data()))
-        throw SceneError(loc, path + ": cannot read pixels: " + src.geterror());
-    if (enc.kind != Encoding::Linear)
-        for (float &v : pixels) v = enc.decode(v);
+    std::vector<float> pixels;
+    if (scalar_from_colour) {
+        const int nin = std::min(spec.nchannels, 4);
+        roi.chbegin = 0;
+        roi.chend = nin;
+        std::vector<float> rgba(size_t(roi.npixels()) * size_t(nin));
+        if (!src.get_pixels(roi, OIIO::TypeDesc::FLOAT, rgba.data()))
+            throw SceneError(loc, path + ": cannot read pixels: " + src.geterror());
+        bool use_alpha = false;
+        if (nin == 4)
+            for (size_t i = 3; i < rgba.size(); i += 4)
+                if (rgba[i] < 1.f) {
+                    use_alpha = true;
+                    break;
+                }
+        pixels.resize(size_t(roi.npixels()));
+        for (size_t i = 0; i < pixels.size(); ++i) {
+            const float *px = &rgba[i * size_t(nin)];
+            // Alpha is coverage, stored linearly; colour channels are decoded first.
+            pixels[i] = use_alpha ? px[3]
+                                  : (enc.decode(px[0]) + enc.decode(px[1]) + enc.decode(px[2])) /
+                                        3.f;
+        }
+    } else {
+        roi.chbegin = 0;
+        roi.chend = out_channels;
+        pixels.resize(size_t(roi.npixels()) * size_t(out_channels));
+        if (!src.get_pixels(roi, OIIO::TypeDesc::FLOAT, pixels.data()))
+            throw SceneError(loc, path + ": cannot read pixels: " + src.geterror());
+        if (enc.kind != Encoding::Linear)
+            for (float &v : pixels) v = enc.decode(v);
+    }
     OIIO::ImageBuf lin(out_spec);
     OIIO::ROI out_roi = lin.roi();
     lin.set_pixels(out_roi, OIIO::TypeDesc::FLOAT, pixels.data());
@@ -576,9 +605,15 @@ PreparedImage prepare_image(const std::string &path, const std::string &encoding
     return {cached.string(), out_channels};
 }
 
-std::string resolve(const std::string &file, const std::string &base_dir) {
-    if (file.empty() || base_dir.empty() || fs::path(file).is_absolute()) return file;
-    return (fs::path(base_dir) / file).string();
+/// A relative file name against the main file's directory (pbrt-v4), falling back to the
+/// directory of the file that declared the texture.
+std::string resolve(const std::string &file, const std::string &base_dir, const FileLoc &loc) {
+    if (file.empty() || fs::path(file).is_absolute()) return file;
+    std::string main = base_dir.empty() ? file : (fs::path(base_dir) / file).string();
+    std::error_code ec;
+    if (fs::exists(main, ec)) return main;
+    fs::path alt = fs::path(loc.file).parent_path() / file;
+    return fs::exists(alt, ec) ? alt.string() : main;
 }
 
 }  // namespace
@@ -689,7 +724,7 @@ struct TextureSet::Builder {
     ImageLookup image(const ParamSet &ps) {
         std::string filename = ps.get_string("filename", "");
         if (filename.empty()) throw SceneError(d.loc, "imagemap: \"filename\" is required");
-        std::string path = resolve(filename, d.base_dir);
+        std::string path = resolve(filename, d.base_dir, d.loc);
         std::error_code ec;
         if (!fs::is_regular_file(path, ec))
             throw SceneError(d.loc, "imagemap: image file \"" + path + "\" not found");
@@ -730,7 +765,8 @@ struct TextureSet::Builder {
             img.opt.mipmode = OIIO::TextureOpt::MipModeOneLevel;
             img.opt.interpmode = OIIO::TextureOpt::InterpBilinear;
         }
-        PreparedImage prep = prepare_image(path, ps.get_string("encoding", ""), d.loc);
+        PreparedImage prep =
+            prepare_image(path, ps.get_string("encoding", ""), d.loc, d.value_type == "float");
         img.ts = texture_system();
         img.handle = img.ts->get_texture_handle(OIIO::ustring(prep.path));
         OIIO::ImageSpec spec;

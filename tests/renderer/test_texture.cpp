@@ -351,11 +351,12 @@ TEST_CASE("imagemap: sRGB linearisation, v flip, wrap modes, scale and invert") 
     Rgb mid = img->evaluate(at_uv(0.25f, 0.75f));
     CHECK(mid.r == doctest::Approx(0.5f * srgb8(188)).epsilon(2e-3));
     CHECK(mid.g == doctest::Approx(0.5f * srgb8(188)).epsilon(2e-3));
-    // Float image maps read channel 0.
+    // Float image maps of an RGB image read the average of the linear channels (pbrt-v4's
+    // MIPMap::Bilerp<Float>); the top-left texel is (188, 0, 0).
     CHECK(set.get_float("imgf")->evaluate(at_uv(0.125f, 0.75f)) ==
-          doctest::Approx(srgb8(188)).epsilon(1e-3));
+          doctest::Approx(srgb8(188) / 3).epsilon(1e-3));
     CHECK(set.get_float("point")->evaluate(at_uv(0.2f, 0.6f)) ==
-          doctest::Approx(srgb8(188)).epsilon(1e-3));
+          doctest::Approx(srgb8(188) / 3).epsilon(1e-3));
     // Wrap modes one texel width beyond s = 1.
     Rgb rep = img->evaluate(at_uv(1.125f, 0.75f));
     CHECK(rep.r == doctest::Approx(srgb8(188)).epsilon(1e-3));
@@ -429,4 +430,43 @@ TEST_CASE("imagemap: a large footprint averages a checkerboard image, from many 
             for (int k = 0; k < 8; ++k) CHECK(out[k * 200 + i] == ref);
         }
     }
+}
+
+TEST_CASE("float image maps of colour images: RGB average, or alpha when it is not all 1") {
+    // pbrt-v4's MIPMap lookups of Float: 3 channels -> average; RGBA with alpha < 1 -> alpha.
+    namespace fs = std::filesystem;
+    fs::path dir = fs::temp_directory_path() / "tessera_texture_float_channels";
+    fs::create_directories(dir);
+    auto write = [&](const std::string &name, int nch, const std::vector<float> &px) {
+        OIIO::ImageSpec spec(2, 2, nch, OIIO::TypeDesc::FLOAT);
+        auto out = OIIO::ImageOutput::create((dir / name).string());
+        REQUIRE(out);
+        REQUIRE(out->open((dir / name).string(), spec));
+        REQUIRE(out->write_image(OIIO::TypeDesc::FLOAT, px.data()));
+        out->close();
+    };
+    std::vector<float> rgb, rgba;
+    for (int i = 0; i < 4; ++i) {
+        rgb.insert(rgb.end(), {0.2f, 0.4f, 0.9f});
+        rgba.insert(rgba.end(), {0.2f, 0.4f, 0.9f, 0.25f});
+    }
+    write("rgb.exr", 3, rgb);
+    write("rgba.exr", 4, rgba);
+    std::vector<TextureDesc> descs(2);
+    for (int i = 0; i < 2; ++i) {
+        descs[size_t(i)].name = i ? "a" : "c";
+        descs[size_t(i)].value_type = "float";
+        descs[size_t(i)].tex_class = "imagemap";
+        Param f;
+        f.type = "string";
+        f.name = "filename";
+        f.strings = {(dir / (i ? "rgba.exr" : "rgb.exr")).string()};
+        descs[size_t(i)].params.params.push_back(f);
+    }
+    TextureSet set(descs);
+    TextureEvalContext ctx;
+    ctx.uv = {0.5f, 0.5f};
+    CHECK(set.get_float("c")->evaluate(ctx) == doctest::Approx(0.5f).epsilon(1e-3));
+    CHECK(set.get_float("a")->evaluate(ctx) == doctest::Approx(0.25f).epsilon(1e-3));
+    fs::remove_all(dir);
 }
