@@ -17,6 +17,16 @@ std::optional<Vec3f> safe_normalize(Vec3f v) {
     return v / std::sqrt(l2);
 }
 
+/// `v` normalised, or nullopt for a zero / non-finite vector. Directions from the integrator
+/// are already unit (a frame rotation of a unit vector): those within float rounding of unit
+/// length are passed through, which saves a square root and a division per direction.
+std::optional<Vec3f> unit_direction(Vec3f v) {
+    float l2 = length_squared(v);
+    if (std::abs(l2 - 1.f) < 1e-6f)
+        return v;
+    return safe_normalize(v);
+}
+
 /// Mirror direction about the local normal (the specular reflection of wo).
 Vec3f mirror_z(Vec3f wo) {
     return {-wo.x, -wo.y, wo.z};
@@ -478,7 +488,7 @@ std::optional<BsdfSample> CoatedDiffuseBxdf::sample_f(Vec3f wo, float uc, Vec2f 
 
 Rgb Bsdf::f(Vec3f wo_world, Vec3f wi_world, TransportMode mode) const {
     Vec3f wo = frame_.to_local(wo_world), wi = frame_.to_local(wi_world);
-    std::optional<Vec3f> o = safe_normalize(wo), i = safe_normalize(wi);
+    std::optional<Vec3f> o = unit_direction(wo), i = unit_direction(wi);
     if (!o || !i || o->z == 0.f)
         return {};
     Rgb r = std::visit([&](const auto &b) { return b.f(*o, *i, mode); }, bxdf_);
@@ -487,7 +497,7 @@ Rgb Bsdf::f(Vec3f wo_world, Vec3f wi_world, TransportMode mode) const {
 
 std::optional<BsdfSample> Bsdf::sample_f(Vec3f wo_world, float uc, Vec2f u,
                                          TransportMode mode) const {
-    std::optional<Vec3f> wo = safe_normalize(frame_.to_local(wo_world));
+    std::optional<Vec3f> wo = unit_direction(frame_.to_local(wo_world));
     if (!wo || wo->z == 0.f || flags() == kBxdfUnset)
         return std::nullopt;
     std::optional<BsdfSample> s =
@@ -500,8 +510,8 @@ std::optional<BsdfSample> Bsdf::sample_f(Vec3f wo_world, float uc, Vec2f u,
 }
 
 float Bsdf::pdf(Vec3f wo_world, Vec3f wi_world, TransportMode mode) const {
-    std::optional<Vec3f> o = safe_normalize(frame_.to_local(wo_world));
-    std::optional<Vec3f> i = safe_normalize(frame_.to_local(wi_world));
+    std::optional<Vec3f> o = unit_direction(frame_.to_local(wo_world));
+    std::optional<Vec3f> i = unit_direction(frame_.to_local(wi_world));
     if (!o || !i || o->z == 0.f)
         return 0.f;
     float p = std::visit([&](const auto &b) { return b.pdf(*o, *i, mode); }, bxdf_);

@@ -9,6 +9,7 @@ namespace tessera {
 
 namespace {
 constexpr int kFilterTableSize = 256;
+constexpr int kGuideSize = 256;
 
 float gaussian_1d(float x, float sigma) {
     return std::exp(-x * x / (2 * sigma * sigma)) / std::sqrt(2 * kPi * sigma * sigma);
@@ -31,6 +32,13 @@ PixelFilter::PixelFilter(Kind kind, Vec2f radius, float sigma)
         }
         float total = cdf.back();
         for (float &c : cdf) c = total > 0 ? c / total : 0.f;
+        std::vector<uint16_t> &guide = guide_[axis];
+        guide.resize(kGuideSize);
+        for (int k = 0; k < kGuideSize; ++k) {
+            float u = float(k) / kGuideSize;
+            auto it = std::upper_bound(cdf.begin(), cdf.end(), u);
+            guide[size_t(k)] = uint16_t(std::max(0, int(it - cdf.begin()) - 1));
+        }
     }
 }
 
@@ -43,9 +51,13 @@ float PixelFilter::sample_1d(float u, int axis) const {
         return sampling::sample_tent(u, r);
     case Kind::Gaussian: {
         const std::vector<float> &cdf = cdf_[axis];
-        // Largest i with cdf[i] <= u.
-        auto it = std::upper_bound(cdf.begin(), cdf.end(), u);
-        int i = std::clamp(int(it - cdf.begin()) - 1, 0, kFilterTableSize - 1);
+        // Largest i with cdf[i] <= u (what upper_bound - 1 gives), walking up from the guide
+        // entry of u's bucket; cdf[0] = 0 <= u, so the guide entry never overshoots.
+        int k = std::min(int(u * kGuideSize), kGuideSize - 1);
+        int i = guide_[axis][size_t(k)];
+        while (i + 1 <= kFilterTableSize && cdf[size_t(i) + 1] <= u)
+            ++i;
+        i = std::clamp(i, 0, kFilterTableSize - 1);
         float c0 = cdf[size_t(i)], c1 = cdf[size_t(i) + 1];
         float t = c1 > c0 ? (u - c0) / (c1 - c0) : 0.5f;
         return -r + (i + t) * (2 * r / kFilterTableSize);
@@ -99,9 +111,13 @@ PerspectiveCamera::PerspectiveCamera(const Transform &camera_from_world, int wid
                                    Transform::scale(1.0 / (sw[1] - sw[0]), 1.0 / (sw[3] - sw[2]), 1) *
                                    Transform::translate({-sw[0], -sw[3], 0});
     camera_from_raster_ = screen_from_camera.inverse() * raster_from_screen.inverse();
-    Vec3f p0 = camera_from_raster_.point({0, 0, 0});
-    dx_camera_ = camera_from_raster_.point({1, 0, 0}) - p0;
-    dy_camera_ = camera_from_raster_.point({0, 1, 0}) - p0;
+    p0_camera_ = camera_from_raster_.point({0, 0, 0});
+    dx_camera_ = camera_from_raster_.point({1, 0, 0}) - p0_camera_;
+    dy_camera_ = camera_from_raster_.point({0, 1, 0}) - p0_camera_;
+    const Mat4 &wc = world_from_camera_.matrix();
+    for (int r = 0; r < 3; ++r)
+        for (int c = 0; c < 4; ++c)
+            world_from_camera_f_[r][c] = float(wc.m[r][c]);
 
     // Smallest differentials over the film, for Approximate_dp_dxy (pbrt-v4 FindMinimumDifferentials).
     min_pos_dx_ = min_pos_dy_ = {kInfinity, kInfinity, kInfinity};
@@ -119,34 +135,53 @@ PerspectiveCamera::PerspectiveCamera(const Transform &camera_from_world, int wid
     min_pos_dx_ = min_pos_dy_ = {0, 0, 0};
 }
 
-CameraRay PerspectiveCamera::generate_ray(Vec2f p_raster, Vec2f u_lens) const {
-    Vec3f p_camera = camera_from_raster_.point({p_raster.x, p_raster.y, 0});
-    Vec3f o{0, 0, 0};
-    Vec3f d = normalize(p_camera);
+Vec3f PerspectiveCamera::camera_point_world(Vec3f p) const {
+    const auto &m = world_from_camera_f_;
+    return {m[0][0] * p.x + m[0][1] * p.y + m[0][2] * p.z + m[0][3],
+            m[1][0] * p.x + m[1][1] * p.y + m[1][2] * p.z + m[1][3],
+            m[2][0] * p.x + m[2][1] * p.y + m[2][2] * p.z + m[2][3]};
+}
+
+Vec3f PerspectiveCamera::camera_vector_world(Vec3f v) const {
+    const auto &m = world_from_camera_f_;
+    return {m[0][0] * v.x + m[0][1] * v.y + m[0][2] * v.z,
+            m[1][0] * v.x + m[1][1] * v.y + m[1][2] * v.z,
+            m[2][0] * v.x + m[2][1] * v.y + m[2][2] * v.z};
+}
+
+CameraRay PerspectiveCamera::generate_ray(Vec2f p_raster, Vec2f u_lens, bool differentials) const {
+    Vec3f p_camera = p0_camera_ + dx_camera_ * p_raster.x + dy_camera_ * p_raster.y;
     CameraRay cr;
+    cr.ray.t_max = kInfinity;
     if (lens_radius_ > 0) {
+        Vec3f d = normalize(p_camera);
         Vec2f pl = sampling::square_to_disk_concentric(u_lens) * lens_radius_;
         float ft = focal_distance_ / d.z;
         Vec3f p_focus = d * ft;
-        o = {pl.x, pl.y, 0};
-        d = normalize(p_focus - o);
-        // Differentials through the same lens point (pbrt-v4 PerspectiveCamera).
-        Vec3f dxc = normalize(p_camera + dx_camera_);
-        Vec3f dyc = normalize(p_camera + dy_camera_);
-        Vec3f fx = dxc * (focal_distance_ / dxc.z), fy = dyc * (focal_distance_ / dyc.z);
-        cr.rx_o = world_from_camera_.point(o);
-        cr.ry_o = cr.rx_o;
-        cr.rx_d = normalize(world_from_camera_.vector(normalize(fx - o)));
-        cr.ry_d = normalize(world_from_camera_.vector(normalize(fy - o)));
-    } else {
-        cr.rx_o = cr.ry_o = world_from_camera_.point(o);
-        cr.rx_d = normalize(world_from_camera_.vector(normalize(p_camera + dx_camera_)));
-        cr.ry_d = normalize(world_from_camera_.vector(normalize(p_camera + dy_camera_)));
+        Vec3f o{pl.x, pl.y, 0};
+        cr.ray.o = camera_point_world(o);
+        cr.ray.d = normalize(camera_vector_world(p_focus - o));
+        if (differentials) {
+            // Differentials through the same lens point (pbrt-v4 PerspectiveCamera).
+            Vec3f dxc = normalize(p_camera + dx_camera_);
+            Vec3f dyc = normalize(p_camera + dy_camera_);
+            Vec3f fx = dxc * (focal_distance_ / dxc.z), fy = dyc * (focal_distance_ / dyc.z);
+            cr.rx_o = cr.ry_o = cr.ray.o;
+            cr.rx_d = normalize(camera_vector_world(fx - o));
+            cr.ry_d = normalize(camera_vector_world(fy - o));
+            cr.has_differentials = true;
+        }
+        return cr;
     }
-    cr.ray.o = world_from_camera_.point(o);
-    cr.ray.d = normalize(world_from_camera_.vector(d));
-    cr.ray.t_max = kInfinity;
-    cr.has_differentials = true;
+    // Pinhole: one normalisation in world space (the camera transform may scale).
+    cr.ray.o = {world_from_camera_f_[0][3], world_from_camera_f_[1][3], world_from_camera_f_[2][3]};
+    cr.ray.d = normalize(camera_vector_world(p_camera));
+    if (differentials) {
+        cr.rx_o = cr.ry_o = cr.ray.o;
+        cr.rx_d = normalize(camera_vector_world(p_camera + dx_camera_));
+        cr.ry_d = normalize(camera_vector_world(p_camera + dy_camera_));
+        cr.has_differentials = true;
+    }
     return cr;
 }
 

@@ -35,6 +35,10 @@ class PixelFilter {
     float sigma_ = 0.5f;
     // Gaussian: tabulated 1D CDF per axis (the filter is separable).
     std::vector<float> cdf_[2];
+    // Guide table per axis: guide_[a][k] is the largest i with cdf_[a][i] <= k / kGuideSize, so
+    // the CDF inversion starts next to its answer instead of binary-searching 257 entries
+    // (a dozen mispredicted branches per axis and sample).
+    std::vector<uint16_t> guide_[2];
 };
 
 /// Camera ray with the differentials of its origin and direction for one pixel step in x and y.
@@ -51,8 +55,13 @@ class PerspectiveCamera {
     PerspectiveCamera(const Transform &camera_from_world, int width, int height, float fov_deg,
                       float lens_radius, float focal_distance,
                       const float *screen_window = nullptr);
-    /// Ray through raster position (x, y) in pixels; `u_lens` in [0,1)^2 for depth of field.
-    CameraRay generate_ray(Vec2f p_raster, Vec2f u_lens) const;
+    /// Ray through raster position (x, y) in pixels; `u_lens` in [0,1)^2 for depth of field
+    /// (ignored when lens_radius() is 0). With `differentials` false the ray differentials are
+    /// left unset (has_differentials false): scenes without textures never read them.
+    /// Thread-safe.
+    CameraRay generate_ray(Vec2f p_raster, Vec2f u_lens, bool differentials = true) const;
+    /// Lens radius in scene units; 0 for a pinhole (then generate_ray ignores u_lens).
+    float lens_radius() const { return lens_radius_; }
     Vec3f position() const { return world_from_camera_.point({0, 0, 0}); }
     /// Camera-space direction toward +z transformed to world.
     Vec3f forward() const { return normalize(world_from_camera_.vector({0, 0, 1})); }
@@ -61,9 +70,17 @@ class PerspectiveCamera {
     void approximate_dp_dxy(Vec3f p, Vec3f n, int spp, Vec3f *dpdx, Vec3f *dpdy) const;
 
   private:
+    /// world_from_camera_ as float rows (x, y, z); column 3 is the camera position. Ray
+    /// generation is per sample, so it avoids the double-precision projective path of Transform.
+    Vec3f camera_point_world(Vec3f p) const;
+    Vec3f camera_vector_world(Vec3f v) const;
+
     Transform world_from_camera_;
     Transform camera_from_raster_;
-    Vec3f dx_camera_, dy_camera_;  // raster step in camera space on the z=1 plane
+    // Raster (0, 0) and one raster step in x and y, in camera space on the near plane. Raster
+    // points at depth 0 map to the near plane affinely, so p_camera = p0 + x dx + y dy.
+    Vec3f p0_camera_, dx_camera_, dy_camera_;
+    float world_from_camera_f_[3][4];
     float lens_radius_, focal_distance_;
     Vec3f min_pos_dx_, min_pos_dy_, min_dir_dx_, min_dir_dy_;
 };

@@ -328,11 +328,19 @@ std::optional<LightLiSample> TriangleLight::sample_li(const LightSampleContext &
     if (d2 == 0.f)
         return std::nullopt;
     LightLiSample s;
-    s.wi = d / std::sqrt(d2);
-    s.pdf = area_to_solid_angle_pdf(1.f / area_, ctx.p, p, n_);
-    if (s.pdf == 0.f)
+    float inv_dist = 1.f / std::sqrt(d2);
+    s.wi = d * inv_dist;
+    // area_to_solid_angle_pdf(1 / area, ctx.p, p, n_) inlined, reusing d2 and wi.
+    float cos_l = absdot(n_, s.wi);
+    if (cos_l == 0.f)
         return std::nullopt;
-    s.L = L(p, n_, b, -s.wi);
+    s.pdf = d2 / (area_ * cos_l);
+    if (!std::isfinite(s.pdf) || s.pdf == 0.f)
+        return std::nullopt;
+    // The one-sided test of L(): emission leaves the n_ side only.
+    if (!twosided_ && dot(n_, s.wi) >= 0.f)
+        return std::nullopt;
+    s.L = L_;
     if (s.L.is_black())
         return std::nullopt;
     s.p_light = p;

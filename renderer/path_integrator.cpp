@@ -77,8 +77,14 @@ Sample PathIntegrator::evaluate(const CameraSample &cs) const {
     // pixel filter; the sample stays in pixel (px, py) with weight 1.
     Vec2f offset = scene_.filter.sample({cs.fx, cs.fy});
     Vec2f p_raster{float(cs.px) + 0.5f + offset.x, float(cs.py) + 0.5f + offset.y};
-    Vec2f u_lens = sampler.get_2d();
-    CameraRay cray = scene_.camera->generate_ray(p_raster, u_lens);
+    // A pinhole ignores the lens sample: skip its dimensions rather than hash them.
+    Vec2f u_lens{0.5f, 0.5f};
+    if (scene_.camera->lens_radius() > 0)
+        u_lens = sampler.get_2d();
+    else
+        sampler.skip(2);
+    // Only texture filtering reads the ray differentials.
+    CameraRay cray = scene_.camera->generate_ray(p_raster, u_lens, scene_.features.textures);
     PathResult r = trace(cray, sampler);
     Sample s;
     s.radiance = r.L;
@@ -92,7 +98,7 @@ Sample PathIntegrator::evaluate(const CameraSample &cs) const {
 Rgb PathIntegrator::radiance(const Ray &ray, uint32_t px, uint32_t py, uint32_t index) const {
     sampling::SobolSampler sampler(seed_);
     sampler.start_pixel_sample(px, py, index);
-    (void)sampler.get_2d();  // keep the dimension layout of evaluate()
+    sampler.skip(2);  // keep the dimension layout of evaluate()
     CameraRay cray;
     cray.ray = ray;
     cray.has_differentials = false;
@@ -205,8 +211,7 @@ PathIntegrator::PathResult PathIntegrator::trace(const CameraRay &cray,
             }
         } else if (use_nee) {
             // Keep the dimension layout fixed whatever the material.
-            (void)sampler.get_1d();
-            (void)sampler.get_2d();
+            sampler.skip(3);
         }
 
         // BSDF sampling for the next direction.
@@ -224,12 +229,15 @@ PathIntegrator::PathResult PathIntegrator::trace(const CameraRay &cray,
         (void)flags;
 
         // Russian roulette (pbrt-v4): on throughput scaled by the squared relative IOR.
-        Rgb rr_beta = beta * eta_scale;
-        float u_rr = sampler.get_1d();
-        if (rr_beta.max_value() < 1.f && depth > 1) {
-            float q = std::max(0.f, 1.f - rr_beta.max_value());
-            if (u_rr < q) break;
+        // The roulette dimension is always consumed, but only hashed when it is used.
+        float rr_max = (beta * eta_scale).max_value();
+        if (rr_max < 1.f && depth > 1) {
+            float q = std::max(0.f, 1.f - rr_max);
+            if (sampler.get_1d() < q)
+                break;
             beta /= 1.f - q;
+        } else {
+            sampler.skip(1);
         }
         if (beta.is_black()) break;
     }

@@ -208,7 +208,13 @@ std::optional<TriangleMesh> triangles_of(const ShapeDesc &sd, const Transform &x
             if (const Param *x = ps.find(ig)) x->used = true;
     } else if (sd.type == "plymesh") {
         std::string file = resolve(sd.base_dir, sd.loc, ps.get_string("filename", ""));
-        MeshData md = load_ply(file);
+        MeshData md;
+        try {
+            md = load_ply(file);
+        } catch (const SceneError &e) {
+            // Name the Shape directive too: the reader only knows the mesh file.
+            throw SceneError(sd.loc, std::string("plymesh: ") + e.what());
+        }
         p = std::move(md.p);
         n = std::move(md.n);
         uv = std::move(md.uv);

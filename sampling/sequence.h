@@ -119,6 +119,37 @@ inline constexpr uint32_t sobol_dim1(uint32_t index) {
            detail::kSobolDim1Table[3][index >> 24];
 }
 
+namespace detail {
+/// reverse(sobol_dim1(reverse(z))) per byte of z. The Owen scramble works on bit-reversed
+/// values and the index shuffle produces a bit-reversed index, so this composite (linear over
+/// GF(2) like its parts) saves both reversals of the dimension-1 path.
+inline constexpr std::array<std::array<uint32_t, 256>, 4> kSobolDim1ReversedTable = [] {
+    std::array<std::array<uint32_t, 256>, 4> t{};
+    for (uint32_t b = 0; b < 4; ++b)
+        for (uint32_t i = 0; i < 256; ++i)
+            t[b][i] = reverse_bits_32(sobol_dim1_reference(reverse_bits_32(i << (8 * b))));
+    return t;
+}();
+
+/// reverse_bits_32 of both 32-bit halves of v at once (the 2D kernel's final reversals).
+inline constexpr uint64_t reverse_bits_2x32(uint64_t v) {
+    v = ((v >> 8) & 0x00ff00ff00ff00ffull) | ((v & 0x00ff00ff00ff00ffull) << 8);
+    v = ((v >> 16) & 0x0000ffff0000ffffull) | ((v & 0x0000ffff0000ffffull) << 16);
+    v = ((v >> 4) & 0x0f0f0f0f0f0f0f0full) | ((v & 0x0f0f0f0f0f0f0f0full) << 4);
+    v = ((v >> 2) & 0x3333333333333333ull) | ((v & 0x3333333333333333ull) << 2);
+    v = ((v >> 1) & 0x5555555555555555ull) | ((v & 0x5555555555555555ull) << 1);
+    return v;
+}
+}  // namespace detail
+
+/// reverse_bits_32(sobol_dim1(reverse_bits_32(z))) (four table lookups, no reversal).
+inline constexpr uint32_t sobol_dim1_reversed(uint32_t z) {
+    return detail::kSobolDim1ReversedTable[0][z & 0xffu] ^
+           detail::kSobolDim1ReversedTable[1][(z >> 8) & 0xffu] ^
+           detail::kSobolDim1ReversedTable[2][(z >> 16) & 0xffu] ^
+           detail::kSobolDim1ReversedTable[3][z >> 24];
+}
+
 /// 32-bit fixed point to a float in [0, 1). Truncates to the top 24 bits: rounding to nearest
 /// could carry a value across a dyadic boundary and break the stratification.
 inline float fixed_to_unit_float(uint32_t x) {
@@ -155,7 +186,27 @@ inline Vec2f scrambled_sobol_2d(uint32_t h, uint32_t index) {
     return {fixed_to_unit_float(x), fixed_to_unit_float(y)};
 }
 
-/// Per-pixel Owen-scrambled Sobol sampler. A cheap value type (16 bytes): each thread copies
+/// scrambled_sobol_1d(h, index) given index_rev = reverse_bits_32(index): the same value with
+/// two of its four bit reversals removed (the sampler caches index_rev per sample).
+inline float scrambled_sobol_1d_rev(uint32_t h, uint32_t index_rev) {
+    // shuffled = reverse(z); owen_sobol_dim0(shuffled) = reverse(LK(shuffled)).
+    uint32_t z = laine_karras_32(index_rev, mix_bits_32(h ^ 0x68bc21ebu));
+    return fixed_to_unit_float(
+        reverse_bits_32(laine_karras_32(reverse_bits_32(z), mix_bits_32(h + 1u))));
+}
+
+/// scrambled_sobol_2d(h, index) given index_rev = reverse_bits_32(index), bit-identical:
+/// 2 reversals instead of 5 (the dimension-1 path stays in the reversed domain through
+/// sobol_dim1_reversed, and the two output reversals run as one 64-bit reversal).
+inline Vec2f scrambled_sobol_2d_rev(uint32_t h, uint32_t index_rev) {
+    uint32_t z = laine_karras_32(index_rev, mix_bits_32(h ^ 0x68bc21ebu));  // reversed shuffle
+    uint32_t x_rev = laine_karras_32(reverse_bits_32(z), mix_bits_32(h + 1u));
+    uint32_t y_rev = laine_karras_32(sobol_dim1_reversed(z), mix_bits_32(h + 2u));
+    uint64_t xy = detail::reverse_bits_2x32((uint64_t(y_rev) << 32) | x_rev);
+    return {fixed_to_unit_float(uint32_t(xy)), fixed_to_unit_float(uint32_t(xy >> 32))};
+}
+
+/// Per-pixel Owen-scrambled Sobol sampler. A cheap value type (28 bytes): each thread copies
 /// it (or constructs its own) and calls start_pixel_sample() before each sample. Not thread-safe
 /// per instance; every value is a pure function of (seed, px, py, index, dimension), so the
 /// values never depend on which thread or pass draws them.
@@ -177,6 +228,7 @@ class SobolSampler {
         px_ = px;
         py_ = py;
         index_ = index;
+        index_rev_ = reverse_bits_32(index);
         dim_ = dimension;
         pixel_hash_ = hash_pixel(seed_, px, py);
     }
@@ -185,20 +237,24 @@ class SobolSampler {
     float get_1d() {
         uint32_t h = hash_dimension(pixel_hash_, dim_);
         ++dim_;
-        return scrambled_sobol_1d(h, index_);
+        return scrambled_sobol_1d_rev(h, index_rev_);
     }
 
     /// Next 2D value in [0,1)^2; consumes two dimensions (one stratified pair).
     Vec2f get_2d() {
         uint32_t h = hash_dimension(pixel_hash_, dim_);
         dim_ += 2;
-        return scrambled_sobol_2d(h, index_);
+        return scrambled_sobol_2d_rev(h, index_rev_);
     }
+
+    /// Consumes `n` dimensions without computing them: a caller that does not need a value
+    /// keeps the dimension layout (and so every later value) as if it had drawn it.
+    void skip(uint32_t n) { dim_ += n; }
 
     /// Film offset inside the pixel in [0,1)^2 from the reserved pair (kPixelDimension,
     /// kPixelDimension + 1). Does not advance the dimension counter.
     Vec2f get_pixel_2d() const {
-        return scrambled_sobol_2d(hash_dimension(pixel_hash_, kPixelDimension), index_);
+        return scrambled_sobol_2d_rev(hash_dimension(pixel_hash_, kPixelDimension), index_rev_);
     }
 
     /// Next dimension get_1d / get_2d will use.
@@ -213,6 +269,7 @@ class SobolSampler {
     uint32_t seed_ = 0;
     uint32_t px_ = 0, py_ = 0;
     uint32_t index_ = 0;
+    uint32_t index_rev_ = 0;  // reverse_bits_32(index_), shared by every dimension's shuffle
     uint32_t dim_ = kFirstFreeDimension;
     uint32_t pixel_hash_ = hash_pixel(0, 0, 0);  // hash_pixel(seed_, px_, py_)
 };

@@ -9,19 +9,30 @@
 
 namespace tessera::sampling {
 
+/// sin and cos of x for |x| <= pi/4 (Taylor polynomials to x^9 and x^8: error below 3e-8,
+/// under half a float ulp of 1). The concentric map only needs this range, and libm's sincosf
+/// with its range reduction showed up at ~2% of a render profile.
+inline Vec2f sincos_quarter_pi(float x) {
+    float x2 = x * x;
+    float s =
+        x * (1.f + x2 * (-1.f / 6 + x2 * (1.f / 120 + x2 * (-1.f / 5040 + x2 * (1.f / 362880)))));
+    float c = 1.f + x2 * (-0.5f + x2 * (1.f / 24 + x2 * (-1.f / 720 + x2 * (1.f / 40320))));
+    return {s, c};
+}
+
 /// Concentric map of the square onto the unit disk (Shirley & Chiu 1997). Density 1/pi.
 inline Vec2f square_to_disk_concentric(Vec2f u) {
     float ox = 2.f * u.x - 1.f, oy = 2.f * u.y - 1.f;
-    if (ox == 0.f && oy == 0.f) return {0.f, 0.f};
-    float r, theta;
+    if (ox == 0.f && oy == 0.f)
+        return {0.f, 0.f};
     if (std::abs(ox) > std::abs(oy)) {
-        r = ox;
-        theta = kPiOver4 * (oy / ox);
-    } else {
-        r = oy;
-        theta = kPiOver2 - kPiOver4 * (ox / oy);
+        // theta = pi/4 (oy / ox) in [-pi/4, pi/4].
+        Vec2f sc = sincos_quarter_pi(kPiOver4 * (oy / ox));
+        return {ox * sc.y, ox * sc.x};
     }
-    return {r * std::cos(theta), r * std::sin(theta)};
+    // theta = pi/2 - a with a = pi/4 (ox / oy): cos(theta) = sin(a), sin(theta) = cos(a).
+    Vec2f sc = sincos_quarter_pi(kPiOver4 * (ox / oy));
+    return {oy * sc.x, oy * sc.y};
 }
 
 /// Cosine-weighted hemisphere around +z (Malley's method). Density cos(theta)/pi per steradian.

@@ -56,7 +56,7 @@ uint64_t raw_embree(const Scene &scene, int spp, int bounces, uint32_t threads) 
                         smp.start_pixel_sample(uint32_t(x), uint32_t(y), uint32_t(s));
                         Vec2f u = smp.get_pixel_2d();
                         CameraRay cr =
-                            scene.camera->generate_ray({x + u.x, y + u.y}, {0.5f, 0.5f});
+                            scene.camera->generate_ray({x + u.x, y + u.y}, {0.5f, 0.5f}, false);
                         Vec3f o = cr.ray.o, d = cr.ray.d;
                         for (int b = 0; b < bounces; ++b) {
                             RTCRayHit rh;
