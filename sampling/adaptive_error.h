@@ -1,0 +1,72 @@
+// Per-pixel and per-region error estimates for adaptive stopping (Dammertz, Hanika, Keller,
+// Lensch 2010, "A Hierarchical Automatic Stopping Condition for Monte Carlo Global
+// Illumination", section 3; used by MoonRay's region trees, Jeffery 2019, and by region_tree.h).
+//
+//  - pixel error   e_p = sum_c |I_c - A_c| / sqrt(I_r + I_g + I_b), with I the mean of all
+//    accepted samples and A the mean of the half buffer (the accepted odd-index samples). It
+//    compares two estimates of the same pixel, one from half the samples, and divides by the
+//    square root of the brightness as a rough tone-mapping sensitivity (a deviation matters less
+//    on a bright pixel). Units: sqrt(radiance); it falls as 1/sqrt(spp) for a fixed pixel.
+//  - region error  e_b = (r / N) * sum_{p in b} e_p, r = sqrt(A_b / A_image), N = A_b the area of
+//    the region in pixels, i.e. sum e_p / sqrt(A_b * A_image). A region whose pixels all have
+//    error e has e_b = e * sqrt(A_b / A_image): the whole image has e_b = e, a small region
+//    less, so small regions are allowed a larger per-pixel error.
+//
+// A pixel without an estimate (too few samples) has error +inf; a region containing one has
+// region error +inf and stays open.
+#pragma once
+
+#include <cstdint>
+
+#include "sampling/film.h"
+#include "sampling/region_tree.h"
+
+namespace tessera::sampling {
+
+/// Dammertz pixel error e_p of one pixel (see the file comment), >= 0, in sqrt(radiance) units.
+///
+/// Returns +inf when the pixel has no estimate: fewer than max(min_samples, 2) accepted
+/// samples, no accepted odd-index sample (empty half buffer) or no accepted even-index sample
+/// (then I == A and the error would read 0 whatever the noise).
+///
+/// Black pixel: when I_r + I_g + I_b <= 0 the formula has no denominator. If I == A the error
+/// is 0 (e.g. every sample black). Otherwise (possible only with signed radiance, whose even and
+/// odd samples cancel) the denominator becomes sqrt(max(sum_c |I_c|, sum_c |A_c|)), the pixel's
+/// own magnitude. A fixed floor such as sqrt(1e-4) would depend on the radiance units of the
+/// scene; the pixel's own magnitude keeps e_p scaling as sqrt(k) when radiance is scaled by k,
+/// exactly as the formula does for ordinary pixels. Pure function, thread-safe.
+float pixel_error(const PixelStats &stats, uint32_t min_samples);
+
+/// Fills `out.error` with pixel_error over the pixels of `region` (clipped to the film).
+/// `out` covers the whole film: if its size differs from the film's it is reallocated and every
+/// pixel set to +inf first (so allocate once and reuse). Pixels outside `region` are untouched.
+/// Thread-safe for disjoint regions once `out` has the film's size, as long as the film's
+/// pixels in `region` are not being written.
+void compute_errors(const Film &film, PixelRect region, uint32_t min_samples, ErrorImage &out);
+
+/// Region error e_b of the float rectangle `region` (pixel units, clipped to the error image):
+/// e_b = (r / N) * sum_p c_p e_p, with c_p in [0, 1] the fraction of pixel p covered by the
+/// region (a partially covered pixel counts by its covered area), N = sum_p c_p the region's area
+/// in pixels, and r = sqrt(N / image_area). +inf if a pixel with positive coverage has +inf or
+/// NaN error; 0 for an empty region. O(area): a reference for tests and tools; RegionTree uses a
+/// summed-area table for the same quantity. Thread-safe.
+double region_error(const ErrorImage &errors, const FloatRect &region, double image_area);
+
+/// Region error of the whole image (r = 1: the mean pixel error), for progress reports.
+/// +inf while any pixel lacks an estimate: the root regions cannot complete before every pixel
+/// has one, and a mean over the finite pixels would read low in early passes. Progress displays
+/// should show "n/a" (or the fraction of pixels with an estimate) instead of a number then.
+/// O(pixels); not thread-safe against concurrent add_sample.
+double image_error(const Film &film, uint32_t min_samples);
+
+/// Mean pixel error over the pixels that have an estimate, and how many lack one: what a
+/// progress bar can show before image_error() becomes finite. `mean_finite` is 0 when no pixel
+/// has an estimate. Thread-safe.
+struct ErrorSummary {
+    double mean_finite = 0;       ///< mean e_p over pixels with a finite error
+    uint64_t unknown_pixels = 0;  ///< pixels with +inf (or NaN) error
+    uint64_t pixels = 0;          ///< pixels in the image
+};
+ErrorSummary summarize_errors(const ErrorImage &errors);
+
+}  // namespace tessera::sampling

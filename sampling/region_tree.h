@@ -1,0 +1,153 @@
+// Image-space region trees for adaptive stopping (MoonRay, Jeffery 2019, "Global Adaptive
+// Sampling Hierarchies in Production Ray Tracing"; error metric of Dammertz et al. 2010, "A
+// Hierarchical Automatic Stopping Condition for Monte Carlo Global Illumination").
+//
+// One tree per image quadrant, rebuilt from scratch after every pass of that quadrant:
+//  - pixel error e_p = sum_c |I_c - A_c| / sqrt(I_r + I_g + I_b), I the mean of all samples, A
+//    the mean of the half buffer (odd-index samples); a pixel with too few samples for an
+//    estimate has infinite error (its region stays open);
+//  - region error e_b = (r / N) * sum_{p in b} e_p, r = sqrt(A_b / A_image), N = pixels in b;
+//  - a region is complete when e_b < target; otherwise, if e_b < split_factor * target (the
+//    estimate is reliable enough to localise the error; Dammertz uses 256), it splits along its
+//    longer axis at the floating-point position that divides its error equally, and both halves
+//    are built recursively; else it stays one open leaf.
+//  - the tree's root covers the quadrant grown by one tile (clamped to the image), so error at
+//    the seams is seen from both sides; leaf bounds used for scheduling round outward to whole
+//    pixels.
+//
+// Error integrals over floating-point rectangles weight a partially covered pixel by its covered
+// fraction (the error is treated as constant over each pixel's unit square). rebuild() builds a
+// summed-area table of the error over the grown rectangle once (double precision); the integral
+// over any float rectangle is then exact bilinear interpolation of that table at its 4 corners
+// (O(1)) and the split search is a binary search over pixel boundaries (O(log extent)), so a
+// rebuild costs O(grown area) for the table plus O(nodes * log extent).
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace tessera::sampling {
+
+/// Half-open integer pixel rectangle [x0, x1) x [y0, y1).
+struct PixelRect {
+    int x0 = 0, y0 = 0, x1 = 0, y1 = 0;
+    int width() const { return x1 - x0; }
+    int height() const { return y1 - y0; }
+    long long area() const { return (long long)width() * height(); }
+    bool empty() const { return x1 <= x0 || y1 <= y0; }
+    bool operator==(const PixelRect &o) const = default;
+};
+
+/// Floating-point rectangle in pixel units (a pixel (x, y) covers [x, x+1) x [y, y+1)).
+struct FloatRect {
+    double x0 = 0, y0 = 0, x1 = 0, y1 = 0;
+    /// The smallest pixel rectangle containing this one (bounds rounded outward).
+    PixelRect outward() const;
+};
+
+/// Per-pixel error image of a whole film: `error[y * width + x]`, +inf where unknown.
+struct ErrorImage {
+    int width = 0, height = 0;
+    std::vector<float> error;
+    float at(int x, int y) const { return error[size_t(y) * size_t(width) + size_t(x)]; }
+};
+
+/// Parameters of the stopping rule.
+struct RegionTreeParams {
+    double target = 0.01;       ///< region error (dimensionless, see file comment) below
+                                ///< which a region is complete
+    double split_factor = 256;  ///< split only when error < split_factor * target
+    int max_depth = 24;         ///< safety bound on the recursion (root has depth 0)
+    double min_extent = 1.0;    ///< pixels; a split never makes a child narrower than this
+                                ///< along the split axis, so a region splits only when its
+                                ///< longer extent is >= 2 * min_extent
+};
+
+/// A binary tree over one quadrant. Not thread-safe: callers hold the quadrant's writer lock for
+/// rebuild() and a reader lock for queries (the const queries never write, so any number of
+/// readers may run concurrently).
+///
+/// Before the first rebuild() every pixel of the quadrant is active (nothing is known yet).
+/// Memory: a summed-area table of the grown rectangle is kept between rebuilds (8 bytes per
+/// pixel, plus 4 bytes per pixel while some pixel has no error estimate).
+class RegionTree {
+  public:
+    struct Node {
+        FloatRect bounds;         ///< pixel units, inside grown()
+        double error = 0;         ///< region error e_b; +inf when some pixel has no estimate
+        bool complete = false;    ///< leaf: e_b < target; inner node: both children complete
+        int child[2] = {-1, -1};  ///< indices into nodes(); -1 for leaves
+        bool is_leaf() const { return child[0] < 0; }
+    };
+
+    /// An empty tree over an empty quadrant (complete, nothing active).
+    RegionTree() = default;
+    /// `quadrant`: the pixels this tree schedules; `grown`: the quadrant grown by one tile and
+    /// clamped to the image (the root's bounds for error computation); `image_area` in pixels
+    /// (of the whole image, for the r factor). Throws std::invalid_argument unless `grown`
+    /// contains `quadrant` and image_area > 0.
+    RegionTree(PixelRect quadrant, PixelRect grown, double image_area);
+
+    /// Rebuilds from scratch from the error image (which covers the whole film; only the
+    /// pixels of grown() are read; +inf or NaN = no estimate, negative values count as 0).
+    /// Returns the number of nodes. Throws std::invalid_argument if `errors` does not cover
+    /// grown() (the tree is then unchanged). Needs the writer lock.
+    size_t rebuild(const ErrorImage &errors, const RegionTreeParams &params);
+
+    /// True when every leaf is complete (nothing left to sample in this quadrant). False before
+    /// the first rebuild unless the quadrant is empty.
+    bool complete() const;
+
+    /// Clears `out`, then appends the parts of `tile` (clipped to the quadrant) that lie in
+    /// incomplete leaves, as pixel rectangles rounded outward (they may overlap each other by a
+    /// pixel where a split falls inside a pixel; callers must not sample a pixel twice — use
+    /// `pixel_active`, or sample the union). Empty when the tile is inside completed regions.
+    /// Allocation-free once `out` has capacity.
+    void active_rects(const PixelRect &tile, std::vector<PixelRect> &out) const;
+
+    /// True if pixel (x, y) lies in the quadrant and in the outward-rounded bounds of an
+    /// incomplete leaf (a pixel only partly covered by an incomplete leaf is active).
+    bool pixel_active(int x, int y) const;
+
+    /// The active pixels of a tile of at most 8x8 pixels as a bit mask: bit
+    /// (y - tile.y0) * 8 + (x - tile.x0) is set iff pixel_active(x, y). 0 when the tile lies in
+    /// completed regions (skip it). The union of active_rects without duplicates, in one
+    /// traversal; allocation-free. Tiles larger than 8x8 are truncated to their first 8x8.
+    uint64_t active_mask(const PixelRect &tile) const;
+
+    const std::vector<Node> &nodes() const { return nodes_; }
+    const PixelRect &quadrant() const { return quadrant_; }
+    const PixelRect &grown() const { return grown_; }
+    /// Error of the root region (the quadrant's error estimate).
+    double root_error() const { return nodes_.empty() ? 0.0 : nodes_[0].error; }
+    /// Number of leaves, and of those the incomplete ones (0, 0 before the first rebuild).
+    size_t leaf_count() const;
+    size_t open_leaf_count() const;
+    /// Area in pixels (float bounds) of the incomplete leaves, clipped to the quadrant.
+    double open_area() const;
+    /// One readable line: quadrant, node and leaf counts, open area, root error.
+    std::string describe() const;
+
+  private:
+    double integral(const FloatRect &r) const;
+    bool has_unknown(const FloatRect &r) const;
+    double split_position(const FloatRect &r, int axis, double total) const;
+    void build(int node, int depth);
+    void collect(int node, const PixelRect &tile, std::vector<PixelRect> &out) const;
+    void collect_mask(int node, const PixelRect &clip, int ox, int oy, uint64_t &mask) const;
+    bool active_at(int node, int x, int y) const;
+
+    PixelRect quadrant_, grown_;
+    double image_area_ = 1;
+    std::vector<Node> nodes_;
+    bool built_ = false;
+    RegionTreeParams params_;
+    // Scratch of rebuild(), kept to avoid reallocating: summed-area tables over grown_,
+    // (width + 1) x (height + 1), of the finite error and of the count of unknown pixels.
+    std::vector<double> sat_;
+    std::vector<uint32_t> unknown_sat_;
+    bool any_unknown_ = false;
+};
+
+}  // namespace tessera::sampling
