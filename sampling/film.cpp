@@ -1,6 +1,8 @@
 // Per-pixel accumulation: sums, half buffer, AOV running means, dropped-sample counting.
 #include "sampling/film.h"
 
+#include <stdexcept>
+
 #include <cmath>
 #include <sstream>
 
@@ -123,6 +125,13 @@ std::string Film::describe() const {
        << (double(bytes_per_pixel()) * pixels_.size() / (1024.0 * 1024.0)) << " MiB, "
        << total_samples() << " samples, " << nan_count() << " dropped non-finite)";
     return os.str();
+}
+
+void Film::restore(std::vector<PixelData> pixels, uint64_t nan_count) {
+    if (pixels.size() != pixels_.size())
+        throw std::invalid_argument("Film::restore: pixel count does not match the film");
+    pixels_ = std::move(pixels);
+    nan_count_.store(nan_count, std::memory_order_relaxed);
 }
 
 }  // namespace tessera::sampling

@@ -98,7 +98,7 @@ class Film {
     /// One readable line: size, memory, samples, dropped samples.
     std::string describe() const;
 
-  private:
+    /// The raw accumulation state of one pixel, exactly as the film keeps it (checkpoints).
     struct PixelData {
         double sum[3] = {0, 0, 0};       // radiance sum of accepted samples
         double half_sum[3] = {0, 0, 0};  // radiance sum of accepted odd-index samples
@@ -110,6 +110,14 @@ class Film {
         uint32_t half_accepted = 0;
         uint32_t hits = 0;
     };
+
+    /// Raw pixel state, row-major (checkpoint writing). Not thread-safe against add_sample.
+    const std::vector<PixelData> &raw_pixels() const { return pixels_; }
+    /// Replaces the whole accumulation state (checkpoint resume): `pixels` must hold
+    /// width * height entries. Not thread-safe.
+    void restore(std::vector<PixelData> pixels, uint64_t nan_count);
+
+  private:
 
     const PixelData &at(uint32_t px, uint32_t py) const {
         return pixels_[size_t(py) * width_ + px];

@@ -1,0 +1,172 @@
+#include "renderer/checkpoint.h"
+
+#include <OpenImageIO/imageio.h>
+
+#include <cstring>
+#include <stdexcept>
+#include <vector>
+
+#include "renderer/image_io.h"
+#include "renderer/scene_desc.h"
+
+namespace tessera {
+
+namespace {
+
+constexpr const char *kFormatTag = "tessera-checkpoint-1";
+
+using PixelData = sampling::Film::PixelData;
+
+/// The channel layout: name and whether the 4-byte value is a float (else a uint32).
+struct Channel {
+    std::string name;
+    bool is_float;
+};
+
+std::vector<Channel> channel_layout() {
+    std::vector<Channel> ch;
+    for (const char *c : {"R", "G", "B"}) ch.push_back({c, true});  // mean, for viewers
+    for (const char *buf : {"sum", "half"})
+        for (const char *c : {"R", "G", "B"})
+            for (const char *part : {"lo", "hi"})
+                ch.push_back({std::string(buf) + "." + c + "_" + part, false});
+    for (const char *c : {"R", "G", "B"}) ch.push_back({std::string("albedo.") + c, true});
+    for (const char *c : {"X", "Y", "Z"}) ch.push_back({std::string("normal.") + c, true});
+    ch.push_back({"depth.Z", true});
+    for (const char *c : {"taken", "accepted", "half_accepted", "hits"})
+        ch.push_back({std::string("count.") + c, false});
+    return ch;
+}
+
+uint32_t float_bits(float f) {
+    uint32_t u;
+    std::memcpy(&u, &f, 4);
+    return u;
+}
+float bits_float(uint32_t u) {
+    float f;
+    std::memcpy(&f, &u, 4);
+    return f;
+}
+
+/// Packs one pixel into the layout's 4-byte words.
+void pack(const PixelData &p, uint32_t *w) {
+    size_t k = 0;
+    uint32_t n = p.accepted;
+    for (int c = 0; c < 3; ++c) w[k++] = float_bits(n ? float(p.sum[c] / n) : 0.f);
+    for (const double *buf : {p.sum, p.half_sum})
+        for (int c = 0; c < 3; ++c) {
+            uint64_t bits;
+            std::memcpy(&bits, &buf[c], 8);
+            w[k++] = uint32_t(bits);
+            w[k++] = uint32_t(bits >> 32);
+        }
+    for (int c = 0; c < 3; ++c) w[k++] = float_bits(p.albedo[c]);
+    for (int c = 0; c < 3; ++c) w[k++] = float_bits(p.normal[c]);
+    w[k++] = float_bits(p.depth);
+    w[k++] = p.taken;
+    w[k++] = p.accepted;
+    w[k++] = p.half_accepted;
+    w[k++] = p.hits;
+}
+
+void unpack(const uint32_t *w, PixelData &p) {
+    size_t k = 3;  // skip the mean
+    for (double *buf : {p.sum, p.half_sum})
+        for (int c = 0; c < 3; ++c) {
+            uint64_t bits = uint64_t(w[k]) | (uint64_t(w[k + 1]) << 32);
+            k += 2;
+            std::memcpy(&buf[c], &bits, 8);
+        }
+    for (int c = 0; c < 3; ++c) p.albedo[c] = bits_float(w[k++]);
+    for (int c = 0; c < 3; ++c) p.normal[c] = bits_float(w[k++]);
+    p.depth = bits_float(w[k++]);
+    p.taken = w[k++];
+    p.accepted = w[k++];
+    p.half_accepted = w[k++];
+    p.hits = w[k++];
+}
+
+}  // namespace
+
+void write_checkpoint(const std::string &path, const sampling::Film &film,
+                      const CheckpointState &state) {
+    const std::vector<Channel> layout = channel_layout();
+    const int nch = int(layout.size());
+    OIIO::ImageSpec spec(int(film.width()), int(film.height()), nch, OIIO::TypeDesc::FLOAT);
+    spec.channelnames.clear();
+    spec.channelformats.clear();
+    for (const Channel &c : layout) {
+        spec.channelnames.push_back(c.name);
+        spec.channelformats.push_back(c.is_float ? OIIO::TypeDesc::FLOAT : OIIO::TypeDesc::UINT);
+    }
+    spec.attribute("compression", "zip");
+    spec.attribute("tessera:format", kFormatTag);
+    spec.attribute("tessera:passes", int(state.passes));
+    spec.attribute("tessera:seed", std::to_string(state.seed));
+    spec.attribute("tessera:elapsed_s", std::to_string(state.elapsed_s));
+    spec.attribute("tessera:nan_count", std::to_string(film.nan_count()));
+    spec.attribute("tessera:scene", state.scene);
+    spec.attribute("tessera:settings", state.settings);
+
+    const std::vector<PixelData> &px = film.raw_pixels();
+    std::vector<uint32_t> words(px.size() * size_t(nch));
+    for (size_t i = 0; i < px.size(); ++i) pack(px[i], &words[i * size_t(nch)]);
+
+    write_atomically(path, [&](const std::string &tmp) {
+        auto out = OIIO::ImageOutput::create("exr");
+        if (!out || !out->open(tmp, spec))
+            throw std::runtime_error(path + ": cannot write checkpoint: " + OIIO::geterror());
+        // TypeDesc::UNKNOWN: the buffer is in the file's native per-channel formats.
+        if (!out->write_image(OIIO::TypeDesc::UNKNOWN, words.data())) {
+            std::string err = out->geterror();
+            out->close();
+            throw std::runtime_error(path + ": cannot write checkpoint: " + err);
+        }
+        if (!out->close()) throw std::runtime_error(path + ": cannot close checkpoint");
+    });
+}
+
+CheckpointState read_checkpoint(const std::string &path, sampling::Film &film) {
+    auto in = OIIO::ImageInput::open(path);
+    if (!in) throw SceneError(path + ":0: cannot read checkpoint: " + OIIO::geterror());
+    const OIIO::ImageSpec &spec = in->spec();
+    if (spec.get_string_attribute("tessera:format") != kFormatTag)
+        throw SceneError(path + ":0: not a Tessera checkpoint");
+    if (uint32_t(spec.width) != film.width() || uint32_t(spec.height) != film.height())
+        throw SceneError(path + ":0: checkpoint is " + std::to_string(spec.width) + "x" +
+                         std::to_string(spec.height) + ", the render is " +
+                         std::to_string(film.width()) + "x" + std::to_string(film.height()));
+    const std::vector<Channel> layout = channel_layout();
+    // The file may store channels in another order (OpenEXR sorts them): map by name.
+    std::vector<int> file_index(layout.size(), -1);
+    for (size_t c = 0; c < layout.size(); ++c)
+        for (int f = 0; f < spec.nchannels; ++f)
+            if (spec.channelnames[size_t(f)] == layout[c].name) file_index[c] = f;
+    for (size_t c = 0; c < layout.size(); ++c)
+        if (file_index[c] < 0)
+            throw SceneError(path + ":0: checkpoint lacks channel " + layout[c].name);
+    // Every channel is 4 bytes: read native data and reorder.
+    std::vector<uint32_t> file_words(size_t(spec.width) * size_t(spec.height) *
+                                     size_t(spec.nchannels));
+    if (!in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::UNKNOWN, file_words.data()))
+        throw SceneError(path + ":0: cannot read checkpoint pixels: " + in->geterror());
+    std::vector<PixelData> px(size_t(spec.width) * size_t(spec.height));
+    std::vector<uint32_t> w(layout.size());
+    for (size_t i = 0; i < px.size(); ++i) {
+        for (size_t c = 0; c < layout.size(); ++c)
+            w[c] = file_words[i * size_t(spec.nchannels) + size_t(file_index[c])];
+        unpack(w.data(), px[i]);
+    }
+    CheckpointState st;
+    st.passes = uint32_t(spec.get_int_attribute("tessera:passes", 0));
+    st.seed = uint32_t(std::stoul(spec.get_string_attribute("tessera:seed", "0")));
+    st.elapsed_s = std::stod(spec.get_string_attribute("tessera:elapsed_s", "0"));
+    uint64_t nan = std::stoull(spec.get_string_attribute("tessera:nan_count", "0"));
+    st.scene = spec.get_string_attribute("tessera:scene");
+    st.settings = spec.get_string_attribute("tessera:settings");
+    film.restore(std::move(px), nan);
+    return st;
+}
+
+}  // namespace tessera
