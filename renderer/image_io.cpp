@@ -136,13 +136,14 @@ void write_exr(const std::string &path, uint32_t width, uint32_t height,
 }
 
 void write_film_exr(const std::string &path, const sampling::Film &film,
-                    const ExrWriteOptions &options) {
+                    const ExrWriteOptions &options, std::vector<ImageLayer> extra) {
     std::vector<ImageLayer> layers;
     layers.push_back({"", {"R", "G", "B"}, film.beauty_rgb(), false});
     layers.push_back({"albedo", {"R", "G", "B"}, film.albedo_rgb(), false});
     layers.push_back({"normal", {"X", "Y", "Z"}, film.normal_xyz(), false});
     layers.push_back({"depth", {"Z"}, film.depth(), true});
     layers.push_back({"spp", {"Y"}, film.spp(), true});
+    for (ImageLayer &l : extra) layers.push_back(std::move(l));
     write_exr(path, film.width(), film.height(), layers, options);
 }
 

@@ -47,10 +47,11 @@ struct ExrWriteOptions {
 void write_exr(const std::string &path, uint32_t width, uint32_t height,
                const std::vector<ImageLayer> &layers, const ExrWriteOptions &options = {});
 
-/// Writes the film's beauty, albedo, normal, depth and spp layers (names in the file comment).
-/// Not thread-safe against concurrent add_sample on the film.
+/// Writes the film's beauty, albedo, normal, depth and spp layers (names in the file comment),
+/// then the `extra` layers (e.g. the adaptive sampler's error estimate). Not thread-safe against
+/// concurrent add_sample on the film.
 void write_film_exr(const std::string &path, const sampling::Film &film,
-                    const ExrWriteOptions &options = {});
+                    const ExrWriteOptions &options = {}, std::vector<ImageLayer> extra = {});
 
 /// Writes an 8-bit RGB image (3 bytes per pixel, row-major) in the format given by the path's
 /// extension (e.g. .png), atomically. Throws std::runtime_error on failure.

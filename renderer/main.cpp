@@ -38,7 +38,7 @@ int main(int argc, char **argv) {
     render->add_option("-o,--output", ro.output,
                        "Output EXR (a display PNG is written beside it); default: the scene's "
                        "Film filename");
-    render->add_option("--spp", spp, "Samples per pixel (overrides the scene)")
+    render->add_option("--spp", spp, "Maximum samples per pixel (overrides the scene's pixelsamples)")
         ->check(CLI::PositiveNumber);
     render->add_option("--resolution", resolution, "Film resolution WxH (overrides the scene)");
     render->add_option("--threads", ro.threads, "Worker threads (default: all cores)");
@@ -47,6 +47,28 @@ int main(int argc, char **argv) {
         ->check(CLI::NonNegativeNumber);
     render->add_option("--time", ro.time_s, "Wall-clock budget in seconds (0: none)")
         ->check(CLI::NonNegativeNumber);
+    std::string sampler_spec = "adaptive";
+    render->add_option("--sampler", sampler_spec,
+                       "uniform | adaptive[:error=E,min-spp=N,max-pass-spp=N,split-factor=F] "
+                       "(default adaptive)");
+    uint32_t min_spp = 0;
+    render->add_option("--min-spp", min_spp,
+                       "Samples per pixel of the uniform first pass (default 16)")
+        ->check(CLI::PositiveNumber);
+    double error_target = -1;
+    render->add_option("--error", error_target,
+                       "Adaptive stopping: region error target (Dammertz; 0: none)")
+        ->check(CLI::NonNegativeNumber);
+    render->add_flag("--deterministic", ro.deterministic,
+                     "Barriers between passes: the same image for any thread count");
+    render->add_option("--max-passes", ro.max_passes, "Stop after this many passes (0: none)");
+    render->add_option("--checkpoint", ro.checkpoint,
+                       "Write a checkpoint EXR here at the end (and on Ctrl-C, which otherwise "
+                       "writes OUT.checkpoint.exr)");
+    render->add_option("--checkpoint-every", ro.checkpoint_every,
+                       "Also write the checkpoint every SECONDS")
+        ->check(CLI::NonNegativeNumber);
+    render->add_option("--resume", ro.resume, "Continue from a checkpoint EXR");
     render->add_option("--stats", ro.stats_path, "Write render statistics as JSON");
     render->add_flag("--half", ro.half, "Write half-float EXR colour channels");
     render->add_flag("--no-png", [&](int64_t) { ro.write_png = false; }, "Do not write the PNG");
@@ -83,6 +105,9 @@ int main(int argc, char **argv) {
                 ro.overrides.height = h;
             }
             if (spp > 0) ro.overrides.spp = spp;
+            ro.sampler = tessera::parse_sampler_spec(sampler_spec);
+            if (min_spp > 0) ro.min_spp = min_spp;
+            if (error_target >= 0) ro.error = error_target;
             if (max_depth >= 0) ro.overrides.max_depth = max_depth;
             if (seed >= 0) ro.overrides.seed = uint32_t(seed);
             tessera::run_render(ro);

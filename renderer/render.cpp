@@ -8,9 +8,12 @@
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <sstream>
 
+#include "renderer/checkpoint.h"
 #include "renderer/image_io.h"
 #include "renderer/path_integrator.h"
+#include "sampling/adaptive_error.h"
 
 namespace tessera {
 
@@ -23,7 +26,8 @@ std::atomic<bool> g_cancel{false};
 extern "C" void on_signal(int) { g_cancel.store(true); }
 
 /// Installs SIGINT/SIGTERM handlers for the duration of a render: the first signal finishes
-/// the tiles in flight and writes the image; the handlers are restored afterwards.
+/// the tiles in flight, then the image and a checkpoint are written; the handlers are restored
+/// afterwards.
 class SignalGuard {
   public:
     SignalGuard() {
@@ -41,7 +45,101 @@ class SignalGuard {
     void (*old_term_)(int);
 };
 
+double seconds_since(std::chrono::steady_clock::time_point t0) {
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+/// Adds the counters of one render() call to the running totals.
+void accumulate(sched::AdaptiveStats &total, const sched::AdaptiveStats &s) {
+    total.samples += s.samples;
+    total.rays += s.rays;
+    total.nan_samples += s.nan_samples;
+    total.wall_s += s.wall_s;
+    total.threads = s.threads;
+    total.cancelled = s.cancelled;
+    total.out_of_time = s.out_of_time;
+    total.converged = s.converged;
+    total.tiles_rendered += s.tiles_rendered;
+    total.tiles_skipped += s.tiles_skipped;
+    total.pixels_skipped += s.pixels_skipped;
+    total.lock_wait_s += s.lock_wait_s;
+    total.lock_wait_reader_s += s.lock_wait_reader_s;
+    total.lock_wait_writer_s += s.lock_wait_writer_s;
+    total.tile_wait_s += s.tile_wait_s;
+    double ms_sum = total.tree_rebuild_ms_mean * total.rebuilds +
+                    s.tree_rebuild_ms_mean * s.rebuilds;
+    total.rebuilds += s.rebuilds;
+    total.rebuilds_coalesced += s.rebuilds_coalesced;
+    total.tree_rebuild_ms_mean = total.rebuilds ? ms_sum / total.rebuilds : 0.0;
+    total.tree_rebuild_ms_max = std::max(total.tree_rebuild_ms_max, s.tree_rebuild_ms_max);
+    total.error_estimate = s.error_estimate;
+    total.spp_histogram = s.spp_histogram;
+    total.render_s += s.render_s;
+    total.rebuild_s += s.rebuild_s;
+    total.lock_wait_fraction =
+        total.wall_s > 0 && total.threads
+            ? total.lock_wait_s / (total.wall_s * double(total.threads))
+            : 0.0;
+}
+
+double parse_double(const std::string &key, const std::string &v) {
+    size_t pos = 0;
+    double d = 0;
+    try {
+        d = std::stod(v, &pos);
+    } catch (const std::exception &) {
+        pos = 0;
+    }
+    if (pos != v.size() || !std::isfinite(d) || d < 0)
+        throw SceneError("--sampler: \"" + key + "\" expects a non-negative number, got \"" + v +
+                         "\"");
+    return d;
+}
+
 }  // namespace
+
+std::string SamplerSpec::describe() const {
+    std::ostringstream os;
+    os << name;
+    if (name == "adaptive") {
+        os << ":error=" << (error ? *error : kDefaultErrorTarget);
+        if (min_spp) os << ",min-spp=" << *min_spp;
+        os << ",max-pass-spp=" << max_pass_spp << ",split-factor=" << split_factor;
+    }
+    return os.str();
+}
+
+SamplerSpec parse_sampler_spec(const std::string &text) {
+    SamplerSpec spec;
+    size_t colon = text.find(':');
+    spec.name = text.substr(0, colon);
+    if (spec.name != "uniform" && spec.name != "adaptive")
+        throw SceneError("--sampler: unknown sampler \"" + spec.name +
+                         "\" (available: uniform, adaptive)");
+    if (colon == std::string::npos) return spec;
+    std::stringstream ss(text.substr(colon + 1));
+    std::string item;
+    while (std::getline(ss, item, ',')) {
+        if (item.empty()) continue;
+        size_t eq = item.find('=');
+        if (eq == std::string::npos)
+            throw SceneError("--sampler " + spec.name + ": expected key=value, got \"" + item +
+                             "\"");
+        std::string key = item.substr(0, eq), value = item.substr(eq + 1);
+        if (spec.name == "adaptive" && key == "error") {
+            spec.error = parse_double(key, value);
+        } else if (key == "min-spp" || key == "min_spp") {
+            spec.min_spp = uint32_t(std::max(1.0, parse_double(key, value)));
+        } else if (key == "max-pass-spp") {
+            spec.max_pass_spp = uint32_t(parse_double(key, value));
+        } else if (spec.name == "adaptive" && key == "split-factor") {
+            spec.split_factor = std::max(1.0, parse_double(key, value));
+        } else {
+            throw SceneError("--sampler " + spec.name + ": unknown key \"" + key + "\"");
+        }
+    }
+    return spec;
+}
 
 size_t peak_rss_bytes() {
     struct rusage ru {};
@@ -56,25 +154,39 @@ std::pair<std::string, std::string> output_paths(const std::string &requested) {
     return {stem.string() + ".exr", stem.string() + ".png"};
 }
 
-sched::RenderStats render_scene(const Scene &scene, sampling::Film &film, uint32_t threads,
-                                double time_s, bool quiet, const std::atomic<bool> *cancel) {
+sched::AdaptiveOptions scheduler_options(const Scene &scene, const SamplerSpec &sampler,
+                                         uint32_t threads, bool quiet) {
+    sched::AdaptiveOptions o;
+    o.max_spp = uint32_t(scene.settings.spp);
+    // MoonRay's uniform start is 16 samples; fewer shows 8x8 block artefacts (see the note of
+    // the adaptive sampler issue for the measurement).
+    o.min_spp = std::min(o.max_spp, sampler.min_spp.value_or(16u));
+    o.adaptive = sampler.name == "adaptive";
+    o.error_target = o.adaptive ? sampler.error.value_or(kDefaultErrorTarget) : 0.0;
+    o.max_pass_spp = sampler.max_pass_spp;
+    o.split_factor = sampler.split_factor;
+    o.threads = threads;
+    o.seed = scene.settings.seed;
+    o.progress = quiet ? sched::ProgressReporter::Mode::Never : sched::ProgressReporter::Mode::Auto;
+    return o;
+}
+
+sched::AdaptiveStats render_scene(const Scene &scene, sampling::Film &film, uint32_t threads,
+                                  double time_s, bool quiet, const std::atomic<bool> *cancel) {
     PathIntegrator integrator(scene, scene.settings.seed, scene.settings.max_depth);
-    sched::SchedulerOptions so;
-    so.threads = threads;
-    so.seed = scene.settings.seed;
-    so.progress = quiet ? sched::ProgressReporter::Mode::Never : sched::ProgressReporter::Mode::Auto;
-    sched::TileScheduler scheduler(integrator, film, so);
-    sched::RenderBudget budget;
-    budget.spp = uint32_t(scene.settings.spp);
-    budget.time_s = time_s;
-    return scheduler.render(budget, cancel);
+    SamplerSpec uniform;
+    uniform.name = "uniform";
+    sched::AdaptiveOptions o = scheduler_options(scene, uniform, threads, quiet);
+    o.time_s = time_s;
+    sched::AdaptiveScheduler scheduler(integrator, film, o);
+    return scheduler.render(cancel);
 }
 
 RenderReport run_render(const RenderOptions &opt) {
     RenderReport rep;
     auto t0 = std::chrono::steady_clock::now();
     std::unique_ptr<Scene> scene = load_scene(opt.scene, opt.overrides);
-    rep.load_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    rep.load_s = seconds_since(t0);
     if (!opt.quiet) std::fprintf(stderr, "tessera: %s\n", scene->describe().c_str());
 
     std::string requested = opt.output.empty() ? scene->settings.output : opt.output;
@@ -86,25 +198,102 @@ RenderReport run_render(const RenderOptions &opt) {
     std::error_code ec;
     if (!dir.empty() && !fs::is_directory(dir, ec))
         throw SceneError(exr + ":0: the output folder does not exist");
+    std::string checkpoint = opt.checkpoint;
+    if (checkpoint.empty()) {
+        fs::path c(exr);
+        c.replace_extension(".checkpoint.exr");
+        checkpoint = c.string();
+    }
 
     sampling::Film film(uint32_t(scene->settings.width), uint32_t(scene->settings.height));
+    SamplerSpec sampler = opt.sampler;
+    if (opt.min_spp) sampler.min_spp = *opt.min_spp;
+    if (opt.error) sampler.error = *opt.error;
+    sched::AdaptiveOptions so = scheduler_options(*scene, sampler, opt.threads, opt.quiet);
+    so.deterministic = opt.deterministic;
+    so.max_passes = opt.max_passes;
+
+    CheckpointState cs;
+    cs.seed = scene->settings.seed;
+    cs.scene = opt.scene;
+    cs.settings = sampler.describe() + " spp=" + std::to_string(so.max_spp) +
+                  (opt.deterministic ? " deterministic" : "");
+    double elapsed_before = 0;
+    if (!opt.resume.empty()) {
+        CheckpointState prev = read_checkpoint(opt.resume, film);
+        if (prev.seed != cs.seed)
+            throw SceneError(opt.resume + ":0: checkpoint seed " + std::to_string(prev.seed) +
+                             " differs from the render's seed " + std::to_string(cs.seed));
+        if (prev.settings != cs.settings)
+            warn(FileLoc{opt.resume, 0}, "resuming with other settings: checkpoint \"" +
+                                             prev.settings + "\", now \"" + cs.settings + "\"");
+        so.start_pass = int64_t(prev.passes);
+        rep.passes_total = prev.passes;
+        elapsed_before = prev.elapsed_s;
+    }
+
+    PathIntegrator integrator(*scene, scene->settings.seed, scene->settings.max_depth);
+    auto t_render = std::chrono::steady_clock::now();
     {
         SignalGuard guard;
-        rep.stats = render_scene(*scene, film, opt.threads, opt.time_s, opt.quiet, &g_cancel);
+        // Render in chunks of --checkpoint-every seconds, checkpointing after each chunk; a
+        // chunk resumes at the pass the previous one was in.
+        while (true) {
+            double remaining = opt.time_s > 0 ? opt.time_s - seconds_since(t_render) : 0.0;
+            if (opt.time_s > 0 && remaining <= 0) {
+                rep.stats.out_of_time = true;
+                break;
+            }
+            sched::AdaptiveOptions chunk = so;
+            chunk.time_s = remaining;
+            if (opt.checkpoint_every > 0)
+                chunk.time_s = chunk.time_s > 0 ? std::min(chunk.time_s, opt.checkpoint_every)
+                                                 : opt.checkpoint_every;
+            sched::AdaptiveScheduler scheduler(integrator, film, chunk);
+            sched::AdaptiveStats s = scheduler.render(&g_cancel);
+            accumulate(rep.stats, s);
+            rep.passes_total = s.first_pass + s.passes;
+            rep.stats.passes = rep.passes_total;
+            so.start_pass = int64_t(rep.passes_total);
+            bool chunk_timeout = s.out_of_time && opt.checkpoint_every > 0 &&
+                                 !(opt.time_s > 0 && seconds_since(t_render) >= opt.time_s);
+            if (chunk_timeout) {
+                cs.passes = rep.passes_total;
+                cs.elapsed_s = elapsed_before + seconds_since(t_render);
+                write_checkpoint(checkpoint, film, cs);
+                rep.stats.out_of_time = false;
+                if (s.samples == 0 && s.converged) break;
+                continue;
+            }
+            break;
+        }
     }
     if (rep.stats.cancelled && !opt.quiet)
-        std::fprintf(stderr, "tessera: interrupted; writing the partial image\n");
+        std::fprintf(stderr, "tessera: interrupted; writing the partial image and a checkpoint\n");
 
+    auto t_out = std::chrono::steady_clock::now();
+    // The per-pixel error estimate (Dammertz) as an AOV beside the sample count.
+    sampling::ErrorImage errors;
+    sampling::compute_errors(film, sampling::PixelRect{0, 0, int(film.width()), int(film.height())},
+                             so.min_samples_for_error, errors);
     ExrWriteOptions eo;
     eo.half = opt.half;
-    write_film_exr(exr, film, eo);
+    write_film_exr(exr, film, eo, {ImageLayer{"error", {"Y"}, errors.error, true}});
     if (opt.write_png) {
         sampling::RgbImage img(film.width(), film.height(), film.beauty_rgb());
         write_display_image(png, img, opt.display);
     }
+    if (rep.stats.cancelled || !opt.checkpoint.empty()) {
+        cs.passes = rep.passes_total;
+        cs.elapsed_s = elapsed_before + seconds_since(t_render);
+        write_checkpoint(checkpoint, film, cs);
+        rep.checkpoint_path = checkpoint;
+    }
+    rep.output_s = seconds_since(t_out);
     rep.width = film.width();
     rep.height = film.height();
-    rep.spp = uint32_t(scene->settings.spp);
+    rep.max_spp = so.max_spp;
+    rep.mean_spp = double(film.total_samples()) / double(uint64_t(film.width()) * film.height());
     rep.film_bytes_per_pixel = film.bytes_per_pixel();
     rep.peak_rss_bytes = peak_rss_bytes();
 
@@ -112,15 +301,37 @@ RenderReport run_render(const RenderOptions &opt) {
         const auto &s = rep.stats;
         nlohmann::json j;
         j["scene"] = opt.scene;
+        j["sampler"] = sampler.describe();
+        j["deterministic"] = opt.deterministic;
         j["width"] = rep.width;
         j["height"] = rep.height;
-        j["spp"] = rep.spp;
+        j["spp"] = rep.max_spp;
+        j["min_spp"] = so.min_spp;
+        j["mean_spp"] = rep.mean_spp;
         j["samples"] = s.samples;
         j["rays"] = s.rays;
         j["nan_count"] = s.nan_samples;
         j["threads"] = s.threads;
-        j["passes"] = s.passes;
+        j["passes"] = rep.passes_total;
+        j["pixels_skipped"] = s.pixels_skipped;
+        j["tiles_skipped"] = s.tiles_skipped;
+        j["lock_wait_fraction"] = s.lock_wait_fraction;
+        j["tree_rebuild_ms_max"] = s.tree_rebuild_ms_max;
+        j["tree_rebuild_ms_mean"] = s.tree_rebuild_ms_mean;
+        j["rebuilds"] = s.rebuilds;
+        // Infinity is not JSON: an unknown error estimate is null.
+        if (std::isfinite(s.error_estimate))
+            j["error_estimate"] = s.error_estimate;
+        else
+            j["error_estimate"] = nullptr;
+        j["error_target"] = so.error_target;
+        j["converged"] = s.converged;
+        j["spp_histogram"] = s.spp_histogram;
         j["wall_s"] = s.wall_s;
+        j["time_per_phase"] = {{"load_s", rep.load_s},
+                               {"render_thread_s", s.render_s},
+                               {"rebuild_thread_s", s.rebuild_s},
+                               {"output_s", rep.output_s}};
         j["load_s"] = rep.load_s;
         j["mrays_per_s"] = s.wall_s > 0 ? double(s.rays) / s.wall_s * 1e-6 : 0.0;
         j["samples_per_s"] = s.wall_s > 0 ? double(s.samples) / s.wall_s : 0.0;
@@ -130,15 +341,19 @@ RenderReport run_render(const RenderOptions &opt) {
         j["peak_rss_bytes"] = rep.peak_rss_bytes;
         j["features"] = scene->features.describe();
         j["version"] = TESSERA_VERSION;
+        if (!rep.checkpoint_path.empty()) j["checkpoint"] = rep.checkpoint_path;
         write_atomically(opt.stats_path, [&](const std::string &tmp) {
             std::ofstream f(tmp);
             f << j.dump(2) << "\n";
             if (!f) throw std::runtime_error(opt.stats_path + ": cannot write");
         });
     }
-    if (!opt.quiet)
-        std::fprintf(stderr, "tessera: %s\ntessera: wrote %s%s%s\n", rep.stats.describe().c_str(),
-                     exr.c_str(), opt.write_png ? " and " : "", opt.write_png ? png.c_str() : "");
+    if (!opt.quiet) {
+        std::fprintf(stderr, "tessera: %s\ntessera: wrote %s%s%s%s%s\n",
+                     rep.stats.describe().c_str(), exr.c_str(), opt.write_png ? " and " : "",
+                     opt.write_png ? png.c_str() : "", rep.checkpoint_path.empty() ? "" : " and ",
+                     rep.checkpoint_path.c_str());
+    }
     return rep;
 }
 

@@ -1,23 +1,53 @@
-// `tessera render`: load a scene, render it on the tile scheduler, write EXR + PNG + stats.
+// `tessera render`: load a scene, render it progressively on the adaptive tile scheduler, write
+// EXR + PNG + stats, checkpoints on request and on Ctrl-C.
 #pragma once
 
+#include <atomic>
 #include <optional>
 #include <string>
 
 #include "renderer/color.h"
 #include "renderer/scene.h"
 #include "sampling/film.h"
-#include "scheduler/tile_scheduler.h"
+#include "scheduler/adaptive_scheduler.h"
 
 namespace tessera {
+
+/// Default region error target of the adaptive sampler (Dammertz e_b; see
+/// sampling/region_tree.h). Chosen with the benchmark in scripts/bench_adaptive.sh.
+inline constexpr double kDefaultErrorTarget = 0.002;
+
+/// A sampler selection: `uniform`, or `adaptive[:key=value,...]` with keys error, min-spp,
+/// max-pass-spp, split-factor.
+struct SamplerSpec {
+    std::string name = "adaptive";
+    std::optional<double> error;
+    std::optional<uint32_t> min_spp;
+    uint32_t max_pass_spp = 64;
+    double split_factor = 256;
+    /// One line, e.g. "adaptive:error=0.002,min-spp=16".
+    std::string describe() const;
+};
+
+/// Parses "NAME[:key=value,...]". Throws SceneError ("--sampler: ...") naming the sampler and
+/// the key for an unknown sampler or key, or a bad value.
+SamplerSpec parse_sampler_spec(const std::string &text);
 
 /// Everything `tessera render` takes on the command line.
 struct RenderOptions {
     std::string scene;
     std::string output;             ///< EXR path ("" : from the scene's Film "filename")
-    SceneOverrides overrides;       ///< --spp, --resolution, --seed, --max-depth
+    SceneOverrides overrides;       ///< --spp (the maximum), --resolution, --seed, --max-depth
+    SamplerSpec sampler;            ///< --sampler
+    std::optional<uint32_t> min_spp;   ///< --min-spp (wins over the sampler spec's)
+    std::optional<double> error;       ///< --error (wins over the sampler spec's)
+    bool deterministic = false;     ///< --deterministic: barriers between passes
+    uint32_t max_passes = 0;        ///< --max-passes (0: none)
     uint32_t threads = 0;           ///< 0: all cores
     double time_s = 0;              ///< 0: no time limit
+    std::string checkpoint;         ///< --checkpoint FILE ("" : only on Ctrl-C, beside the EXR)
+    double checkpoint_every = 0;    ///< --checkpoint-every SECONDS (0: at the end only)
+    std::string resume;             ///< --resume FILE
     std::string stats_path;         ///< --stats FILE.json ("" : none)
     bool half = false;              ///< write half-float EXR colour channels
     bool write_png = true;
@@ -27,10 +57,12 @@ struct RenderOptions {
 
 /// What a render produced (for the stats JSON and tests).
 struct RenderReport {
-    sched::RenderStats stats;
-    double load_s = 0;
-    std::string exr_path, png_path;
-    uint32_t width = 0, height = 0, spp = 0;
+    sched::AdaptiveStats stats;     ///< totals over all render() calls of this run
+    uint32_t passes_total = 0;      ///< absolute passes completed (resumed ones included)
+    double load_s = 0, output_s = 0;
+    std::string exr_path, png_path, checkpoint_path;
+    uint32_t width = 0, height = 0, max_spp = 0;
+    double mean_spp = 0;
     size_t film_bytes_per_pixel = 0;
     size_t peak_rss_bytes = 0;
 };
@@ -39,9 +71,14 @@ struct RenderReport {
 /// another extension ("cornell-box.png" from a pbrt Film) keeps its stem.
 std::pair<std::string, std::string> output_paths(const std::string &requested);
 
-/// Renders `scene` into `film` with the scheduler; `cancel` may stop it early (Ctrl-C).
-sched::RenderStats render_scene(const Scene &scene, sampling::Film &film, uint32_t threads,
-                                double time_s, bool quiet, const std::atomic<bool> *cancel);
+/// Scheduler options for a scene and a sampler choice (shared by the CLI, tests, benchmarks).
+sched::AdaptiveOptions scheduler_options(const Scene &scene, const SamplerSpec &sampler,
+                                         uint32_t threads, bool quiet);
+
+/// Renders `scene` into `film` with uniform sampling to the scene's spp (tests, benchmarks);
+/// `cancel` may stop it early.
+sched::AdaptiveStats render_scene(const Scene &scene, sampling::Film &film, uint32_t threads,
+                                  double time_s, bool quiet, const std::atomic<bool> *cancel);
 
 /// Runs the whole `tessera render` command. Throws SceneError on bad input (exit code 2) and
 /// std::exception on internal errors (exit code 1).

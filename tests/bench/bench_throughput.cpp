@@ -128,7 +128,7 @@ int main(int argc, char **argv) {
         uint64_t rays = 0, samples = 0, raw_rays = 0;
         for (int r = 0; r < reps; ++r) {
             sampling::Film film{uint32_t(res), uint32_t(res)};
-            sched::RenderStats st = render_scene(*scene, film, threads, 0.0, true, nullptr);
+            sched::AdaptiveStats st = render_scene(*scene, film, threads, 0.0, true, nullptr);
             rays = st.rays;
             samples = st.samples;
             best_render = std::min(best_render, st.wall_s);

@@ -20,9 +20,9 @@ inline std::unique_ptr<Scene> scene_from_string(const std::string &text,
 
 /// Renders a scene quietly and returns its mean image.
 inline sampling::RgbImage render_image(const Scene &scene, uint32_t threads = 0,
-                                       sched::RenderStats *stats = nullptr) {
+                                       sched::AdaptiveStats *stats = nullptr) {
     sampling::Film film(uint32_t(scene.settings.width), uint32_t(scene.settings.height));
-    sched::RenderStats s = render_scene(scene, film, threads, 0.0, true, nullptr);
+    sched::AdaptiveStats s = render_scene(scene, film, threads, 0.0, true, nullptr);
     if (stats) *stats = s;
     return sampling::RgbImage(film.width(), film.height(), film.beauty_rgb());
 }

@@ -121,13 +121,11 @@ AttributeEnd
 sampling::RgbImage render_with(const Scene &scene, DirectStrategy strategy) {
     PathIntegrator integ(scene, 7, scene.settings.max_depth, strategy);
     sampling::Film film(uint32_t(scene.settings.width), uint32_t(scene.settings.height));
-    sched::SchedulerOptions so;
+    SamplerSpec uniform;
+    uniform.name = "uniform";
+    sched::AdaptiveOptions so = scheduler_options(scene, uniform, 0, true);
     so.seed = 7;
-    so.progress = sched::ProgressReporter::Mode::Never;
-    sched::TileScheduler ts(integ, film, so);
-    sched::RenderBudget b;
-    b.spp = uint32_t(scene.settings.spp);
-    ts.render(b);
+    sched::AdaptiveScheduler(integ, film, so).render();
     return sampling::RgbImage(film.width(), film.height(), film.beauty_rgb());
 }
 

@@ -279,7 +279,7 @@ Material "frobnium"
 Shape "trianglemesh" "point3 P" [ -1 -1 1  1 -1 1  0 1 1 ]
 )",
                                                "unsupported_material_small.pbrt", ov);
-    sched::RenderStats st;
+    sched::AdaptiveStats st;
     sampling::RgbImage img = render_image(*small, 1, &st);
     CHECK(st.nan_samples == 0);
     for (float v : img.data) CHECK(std::isfinite(v));

@@ -1,0 +1,858 @@
+// Progressive adaptive tile scheduler (MoonRay, Jeffery 2019): quadrant region trees rebuilt by
+// the last thread out of each quadrant pass, striped reader-writer locks, no global barrier.
+#include "scheduler/adaptive_scheduler.h"
+
+#include <tbb/global_control.h>
+#include <tbb/info.h>
+#include <tbb/parallel_for.h>
+#include <tbb/partitioner.h>
+#include <tbb/task_arena.h>
+#include <unistd.h>
+
+#if defined(__SANITIZE_THREAD__)
+#include <sanitizer/tsan_interface.h>
+#endif
+
+#include <algorithm>
+#include <array>
+#include <bit>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <mutex>
+#include <sstream>
+#include <stdexcept>
+
+#include "sampling/adaptive_error.h"
+#include "scheduler/striped_locks.h"
+#include "scheduler/tile_scheduler.h"
+
+namespace tessera::sched {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+constexpr float kInfF = std::numeric_limits<float>::infinity();
+constexpr uint32_t kTilePixels = kTileSize * kTileSize;
+
+double seconds_since(Clock::time_point t0) {
+    return std::chrono::duration<double>(Clock::now() - t0).count();
+}
+
+// Takes `m`, returning the seconds waited (0 when it was free at once; see striped_locks.h).
+double lock_timed(std::mutex &m) {
+    if (m.try_lock())
+        return 0.0;
+    auto t0 = Clock::now();
+    m.lock();
+    return seconds_since(t0);
+}
+
+// Progress line of an adaptive render: drawn by whichever worker reports work when the redraw
+// interval has passed (try-lock, as ProgressReporter), on stderr.
+class AdaptiveProgress {
+  public:
+    AdaptiveProgress(ProgressReporter::Mode mode, uint64_t pixels, uint64_t initial_samples,
+                     const AdaptiveOptions &o)
+        : pixels_(pixels), initial_samples_(initial_samples), options_(o), start_(Clock::now()) {
+        enabled_ = mode == ProgressReporter::Mode::Always ||
+                   (mode == ProgressReporter::Mode::Auto && isatty(STDERR_FILENO) == 1);
+    }
+
+    void add(uint64_t samples, uint64_t rays) {
+        samples_.fetch_add(samples, std::memory_order_relaxed);
+        rays_.fetch_add(rays, std::memory_order_relaxed);
+        if (!enabled_)
+            return;
+        int64_t now_ns =
+            std::chrono::duration_cast<std::chrono::nanoseconds>(Clock::now() - start_).count();
+        if (now_ns < next_draw_ns_.load(std::memory_order_relaxed))
+            return;
+        std::unique_lock<std::mutex> lock(draw_mutex_, std::try_to_lock);
+        if (!lock.owns_lock())
+            return;
+        next_draw_ns_.store(now_ns + 200'000'000, std::memory_order_relaxed);
+        draw(false);
+    }
+    void set_passes(uint32_t passes) {
+        uint32_t cur = passes_.load(std::memory_order_relaxed);
+        while (cur < passes && !passes_.compare_exchange_weak(cur, passes)) {
+        }
+    }
+    void set_error(double e) { error_.store(e, std::memory_order_relaxed); }
+    void finish() {
+        if (!enabled_)
+            return;
+        std::lock_guard<std::mutex> lock(draw_mutex_);
+        draw(true);
+    }
+
+  private:
+    AdaptiveProgressState state() const {
+        AdaptiveProgressState st;
+        st.passes = passes_.load(std::memory_order_relaxed);
+        uint64_t done = samples_.load(std::memory_order_relaxed);
+        st.mean_spp = pixels_ ? double(initial_samples_ + done) / double(pixels_) : 0.0;
+        st.error = error_.load(std::memory_order_relaxed);
+        st.error_target = options_.error_target;
+        st.elapsed_s = seconds_since(start_);
+        if (st.elapsed_s > 0)
+            st.rays_per_s = double(rays_.load(std::memory_order_relaxed)) / st.elapsed_s;
+        // ETA: the smallest of the estimates each budget gives.
+        double eta = -1, frac = 0;
+        auto take = [&](double e, double f) {
+            if (e >= 0 && (eta < 0 || e < eta))
+                eta = e;
+            frac = std::max(frac, std::clamp(f, 0.0, 1.0));
+        };
+        if (options_.time_s > 0)
+            take(std::max(0.0, options_.time_s - st.elapsed_s), st.elapsed_s / options_.time_s);
+        if (options_.max_spp > 0 && pixels_) {
+            double total = double(pixels_) * options_.max_spp - double(initial_samples_);
+            double f = total > 0 ? double(done) / total : 1.0;
+            // Below 1% the extrapolation is mostly start-up noise.
+            if (f > 0.01)
+                take(st.elapsed_s * (1 - f) / f, f);
+            else
+                frac = std::max(frac, std::max(f, 0.0));
+        }
+        if (st.error_target > 0 && std::isfinite(st.error) && st.error > 0) {
+            // Error falls as 1/sqrt(spp): (e / target)^2 times the samples so far are needed
+            // (pessimistic: completed regions stop costing).
+            double ratio = st.error / st.error_target, need = ratio * ratio;
+            take(need > 1 ? st.elapsed_s * (need - 1) : 0.0, 1.0 / std::max(need, 1.0));
+        }
+        st.eta_s = eta;
+        st.fraction = frac;
+        return st;
+    }
+    void draw(bool final_line) {
+        std::string line = format_adaptive_progress_line(state());
+        size_t len = line.size();
+        if (len < last_line_length_)
+            line.append(last_line_length_ - len, ' ');
+        last_line_length_ = len;
+        std::fprintf(stderr, "\r%s%s", line.c_str(), final_line ? "\n" : "");
+        std::fflush(stderr);
+    }
+
+    bool enabled_ = false;
+    uint64_t pixels_ = 0, initial_samples_ = 0;
+    AdaptiveOptions options_;
+    Clock::time_point start_;
+    std::atomic<uint64_t> samples_{0}, rays_{0};
+    std::atomic<uint32_t> passes_{0};
+    std::atomic<double> error_{-1.0};
+    std::atomic<int64_t> next_draw_ns_{0};
+    std::mutex draw_mutex_;
+    size_t last_line_length_ = 0;
+};
+
+}  // namespace
+
+// ---------------------------------------------------------------------------------------------
+// Per-quadrant, per-render and per-worker state.
+// ---------------------------------------------------------------------------------------------
+
+struct AdaptiveScheduler::Quadrant {
+    explicit Quadrant(uint32_t stripes) : locks(stripes) {}
+    sampling::PixelRect rect, grown;
+    std::vector<uint32_t> tiles;  // Morton indices of its tiles
+    // Double-buffered tree: readers use trees[active] under their stripe's shared lock; the
+    // rebuild writes trees[1 - active], which no reader can be using (see rebuild_quadrant).
+    sampling::RegionTree trees[2];
+    std::atomic<uint32_t> active{0};
+    const sampling::RegionTree &live() const {
+        return trees[active.load(std::memory_order_acquire)];
+    }
+    StripedRwLocks locks;
+    alignas(64) std::atomic<int64_t> left{0};  // tiles left in the current pass
+    // Serialises this quadrant's rebuilds (the paper's update lock); the stripes are taken only
+    // for the swap. Everything below up to the atomics is guarded by it (or belongs to the
+    // calling thread in deterministic mode).
+    std::mutex rebuild_mutex;
+    // Copy of the snapshot over [0, grown.x1) x [0, grown.y1) (the tree indexes the error image
+    // in image coordinates; the part left of / above `grown` is unused).
+    sampling::ErrorImage errors;
+    uint32_t rebuilds = 0;
+    double rebuild_ms_sum = 0, rebuild_ms_max = 0;
+    // Read by other quadrants' progress updates.
+    std::atomic<double> error_sum{0};           // finite pixel errors over `rect`, last rebuild
+    std::atomic<uint64_t> unknown_pixels{0};    // pixels of `rect` without an estimate
+    std::atomic<uint32_t> passes_done{0};       // passes of this quadrant completed (this render)
+    std::atomic<uint32_t> rebuild_requests{0};  // see finish_tile_nonbarrier
+};
+
+struct AdaptiveScheduler::RenderContext {
+    const std::atomic<bool> *cancel = nullptr;
+    Clock::time_point start, deadline;
+    bool timed = false;
+    uint64_t first_pass = 0, pass_end = 0;
+    std::atomic<uint64_t> next_work{0};
+    std::atomic<bool> stop{false}, stop_cancel{false}, stop_time{false}, converged{false};
+    std::atomic<uint32_t> open_mask{0};  // bit q: quadrant q's tree incomplete
+    std::unique_ptr<AdaptiveProgress> progress;
+    std::mutex merge_mutex;
+    AdaptiveStats totals;  // per-worker sums merged under merge_mutex
+
+    // Checks cancel and time; true when the workers must stop taking tiles.
+    bool should_stop() {
+        if (stop.load(std::memory_order_relaxed))
+            return true;
+        if (cancel && cancel->load(std::memory_order_relaxed)) {
+            stop_cancel.store(true, std::memory_order_relaxed);
+            stop.store(true, std::memory_order_relaxed);
+            return true;
+        }
+        if (timed && Clock::now() >= deadline) {
+            stop_time.store(true, std::memory_order_relaxed);
+            stop.store(true, std::memory_order_relaxed);
+            return true;
+        }
+        return false;
+    }
+};
+
+struct AdaptiveScheduler::WorkerState {
+    uint64_t samples = 0, rays = 0, tiles_rendered = 0, tiles_skipped = 0, pixels_skipped = 0;
+    double reader_wait_s = 0, writer_wait_s = 0, tile_wait_s = 0, render_s = 0, rebuild_s = 0;
+    uint64_t coalesced_rebuilds = 0;
+    std::vector<sampling::PixelRect> rects;
+    std::array<uint8_t, kTilePixels> active{};
+    std::array<uint32_t, kTilePixels> before{}, after{};
+
+    void merge_into(RenderContext &ctx) const {
+        std::lock_guard<std::mutex> lock(ctx.merge_mutex);
+        AdaptiveStats &t = ctx.totals;
+        t.samples += samples;
+        t.rays += rays;
+        t.tiles_rendered += tiles_rendered;
+        t.tiles_skipped += tiles_skipped;
+        t.pixels_skipped += pixels_skipped;
+        t.lock_wait_reader_s += reader_wait_s;
+        t.lock_wait_writer_s += writer_wait_s;
+        t.tile_wait_s += tile_wait_s;
+        t.rebuilds_coalesced += uint32_t(coalesced_rebuilds);
+        t.render_s += render_s;
+        t.rebuild_s += rebuild_s;
+    }
+};
+
+// ---------------------------------------------------------------------------------------------
+// Stats and progress formatting.
+// ---------------------------------------------------------------------------------------------
+
+std::string AdaptiveStats::describe() const {
+    std::ostringstream os;
+    os << samples << " samples, " << rays << " rays in " << wall_s << " s ("
+       << (wall_s > 0 ? double(rays) / wall_s * 1e-6 : 0.0) << " Mrays/s), " << passes
+       << " passes, " << threads << " threads, error " << error_estimate;
+    if (converged)
+        os << " (converged)";
+    os << ", " << tiles_skipped << " tiles / " << pixels_skipped << " pixel visits skipped, "
+       << rebuilds << " rebuilds (" << rebuilds_coalesced << " coalesced requests, mean "
+       << tree_rebuild_ms_mean << " ms, max " << tree_rebuild_ms_max << " ms), lock wait "
+       << lock_wait_fraction * 100 << "% (readers " << lock_wait_reader_s * 1e3 << " ms, writers "
+       << lock_wait_writer_s * 1e3 << " ms)";
+    if (nan_samples)
+        os << ", " << nan_samples << " non-finite samples dropped";
+    if (cancelled)
+        os << ", cancelled";
+    if (out_of_time)
+        os << ", time budget reached";
+    return os.str();
+}
+
+std::string format_adaptive_progress_line(const AdaptiveProgressState &st, int bar_width) {
+    double f = std::clamp(st.fraction, 0.0, 1.0);
+    int filled = int(f * bar_width);
+    std::string line = "[";
+    line.append(size_t(std::max(0, filled)), '#');
+    line.append(size_t(std::max(0, bar_width - filled)), '.');
+    line += "] ";
+    char buf[200];
+    std::snprintf(buf, sizeof buf, "passes %u  spp %.1f", st.passes, st.mean_spp);
+    line += buf;
+    if (st.error >= 0 && std::isfinite(st.error))
+        std::snprintf(buf, sizeof buf, "  err %.4g", st.error);
+    else
+        std::snprintf(buf, sizeof buf, "  err n/a");
+    line += buf;
+    if (st.error_target > 0) {
+        std::snprintf(buf, sizeof buf, "/%.4g", st.error_target);
+        line += buf;
+    }
+    std::snprintf(buf, sizeof buf, "  %.1f Mrays/s  ETA %s", st.rays_per_s * 1e-6,
+                  format_duration(st.eta_s).c_str());
+    line += buf;
+    return line;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Pass targets.
+// ---------------------------------------------------------------------------------------------
+
+namespace {
+
+uint64_t spp_cap(const AdaptiveOptions &o) {
+    return o.max_spp ? o.max_spp : std::numeric_limits<uint32_t>::max();
+}
+
+uint64_t first_target(const AdaptiveOptions &o) {
+    return std::clamp<uint64_t>(std::max(o.min_spp, 1u), 1, spp_cap(o));
+}
+
+}  // namespace
+
+uint32_t AdaptiveScheduler::pass_target(const AdaptiveOptions &o, uint64_t pass) {
+    const uint64_t cap = spp_cap(o), step_cap = o.max_pass_spp;
+    uint64_t t = first_target(o), p = 0;
+    // Doubling while the whole target is below the pass cap (at most ~32 steps).
+    while (p < pass && t < cap && (step_cap == 0 || t < step_cap)) {
+        t = std::min(cap, t + (step_cap ? std::min(t, step_cap) : t));
+        ++p;
+    }
+    // Then constant steps of max_pass_spp.
+    if (p < pass && t < cap) {
+        uint64_t steps = pass - p;
+        t = steps >= cap ? cap : std::min(cap, t + steps * step_cap);
+    }
+    return uint32_t(t);
+}
+
+uint64_t AdaptiveScheduler::pass_count(const AdaptiveOptions &o) {
+    const uint64_t cap = spp_cap(o), step_cap = o.max_pass_spp;
+    uint64_t t = first_target(o), p = 0;
+    while (t < cap && (step_cap == 0 || t < step_cap)) {
+        t = std::min(cap, t + (step_cap ? std::min(t, step_cap) : t));
+        ++p;
+    }
+    if (t < cap)
+        p += (cap - t + step_cap - 1) / step_cap;
+    return p + 1;
+}
+
+std::vector<uint32_t> AdaptiveScheduler::pass_targets(const AdaptiveOptions &o) {
+    if (o.max_spp == 0)
+        throw std::invalid_argument("pass_targets: max_spp 0 is unbounded");
+    std::vector<uint32_t> out;
+    uint64_t n = pass_count(o);
+    out.reserve(size_t(n));
+    for (uint64_t p = 0; p < n; ++p)
+        out.push_back(pass_target(o, p));
+    return out;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Construction.
+// ---------------------------------------------------------------------------------------------
+
+AdaptiveScheduler::AdaptiveScheduler(const SampleSource &source, sampling::Film &film,
+                                     AdaptiveOptions options)
+    : source_(source), film_(film), options_(std::move(options)) {
+    if (film.width() != source.width() || film.height() != source.height())
+        throw std::invalid_argument("AdaptiveScheduler: film and sample source sizes differ");
+    adaptive_ = options_.adaptive && options_.error_target > 0;
+    if (options_.max_spp == 0 && !(options_.time_s > 0) && !adaptive_)
+        throw std::invalid_argument(
+            "AdaptiveScheduler: max_spp 0 needs a time budget or an error target");
+    threads_ = options_.threads ? options_.threads
+                                : uint32_t(std::max(1, tbb::info::default_concurrency()));
+
+    const uint32_t w = film.width(), h = film.height();
+    tiles_ = make_morton_tiles(w, h, kTileSize);
+    // Split at tile boundaries so that every tile lies in exactly one quadrant.
+    const uint32_t tiles_x = (w + kTileSize - 1) / kTileSize;
+    const uint32_t tiles_y = (h + kTileSize - 1) / kTileSize;
+    const uint32_t cx = (tiles_x + 1) / 2, cy = (tiles_y + 1) / 2;
+    const int sx = int(std::min(w, cx * kTileSize)), sy = int(std::min(h, cy * kTileSize));
+    const int iw = int(w), ih = int(h), g = int(kTileSize);
+    const double image_area = std::max(1.0, double(w) * double(h));
+    for (int q = 0; q < 4; ++q) {
+        auto quad = std::make_unique<Quadrant>(options_.lock_stripes);
+        sampling::PixelRect r;
+        r.x0 = (q & 1) ? sx : 0;
+        r.x1 = (q & 1) ? iw : sx;
+        r.y0 = (q & 2) ? sy : 0;
+        r.y1 = (q & 2) ? ih : sy;
+        if (r.empty())
+            r = {};
+        quad->rect = r;
+        if (!r.empty())
+            quad->grown = {std::max(0, r.x0 - g), std::max(0, r.y0 - g), std::min(iw, r.x1 + g),
+                           std::min(ih, r.y1 + g)};
+        quad->trees[0] = sampling::RegionTree(quad->rect, quad->grown, image_area);
+        quad->trees[1] = sampling::RegionTree(quad->rect, quad->grown, image_area);
+        quadrants_.push_back(std::move(quad));
+    }
+    tile_quadrant_.resize(tiles_.size());
+    for (size_t t = 0; t < tiles_.size(); ++t) {
+        uint32_t q = (tiles_[t].tx >= cx ? 1u : 0u) | (tiles_[t].ty >= cy ? 2u : 0u);
+        tile_quadrant_[t] = q;
+        quadrants_[q]->tiles.push_back(uint32_t(t));
+    }
+    error_snapshot_ = std::make_unique<std::atomic<float>[]>(size_t(w) * h);
+    tile_done_ = std::make_unique<std::atomic<uint32_t>[]>(tiles_.size());
+}
+
+AdaptiveScheduler::~AdaptiveScheduler() = default;
+
+const sampling::RegionTree &AdaptiveScheduler::tree(int quadrant) const {
+    return quadrants_.at(size_t(quadrant))->live();
+}
+
+sampling::PixelRect AdaptiveScheduler::quadrant_rect(int quadrant) const {
+    return quadrants_.at(size_t(quadrant))->rect;
+}
+
+std::string AdaptiveScheduler::describe() const {
+    std::ostringstream os;
+    os << "AdaptiveScheduler(" << film_.width() << "x" << film_.height() << ", " << tiles_.size()
+       << " tiles in Morton order, quadrants";
+    for (const auto &q : quadrants_)
+        os << " " << q->rect.width() << "x" << q->rect.height();
+    os << ", " << threads_ << " threads, " << (adaptive_ ? "adaptive" : "uniform")
+       << (options_.deterministic ? " deterministic" : " barrier-free") << ", spp "
+       << options_.min_spp << ".." << options_.max_spp << ", target " << options_.error_target
+       << ", seed " << options_.seed << ")";
+    return os.str();
+}
+
+// ---------------------------------------------------------------------------------------------
+// Rendering.
+// ---------------------------------------------------------------------------------------------
+
+void AdaptiveScheduler::init_error_snapshot() {
+    const uint32_t w = film_.width(), h = film_.height();
+    const bool empty = film_.total_samples() == 0;
+    for (uint32_t y = 0; y < h; ++y)
+        for (uint32_t x = 0; x < w; ++x) {
+            float e = empty ? kInfF
+                            : sampling::pixel_error(film_.pixel_stats(x, y),
+                                                    options_.min_samples_for_error);
+            error_snapshot_[size_t(y) * w + x].store(e, std::memory_order_relaxed);
+        }
+}
+
+void AdaptiveScheduler::process_tile(size_t t, uint32_t pass, RenderContext &ctx, WorkerState &ws) {
+    const Tile &tile = tiles_[t];
+    const uint32_t q = tile_quadrant_[t];
+    Quadrant &quad = *quadrants_[q];
+
+    // The same tile's previous pass may still be in flight on another thread (more threads than
+    // tiles, or a slow tile): wait for it, so each pixel has one writer and stays in order.
+    std::atomic<uint32_t> &done = tile_done_[t];
+    uint32_t d = done.load(std::memory_order_acquire);
+    if (d != pass) {
+        auto t0 = Clock::now();
+        while (d != pass) {
+            done.wait(d, std::memory_order_acquire);
+            d = done.load(std::memory_order_acquire);
+        }
+        ws.tile_wait_s += seconds_since(t0);
+    }
+    if (options_.tile_hook)
+        options_.tile_hook(tile, pass);
+
+    auto t0 = Clock::now();
+    const uint32_t target = pass_target(options_, pass);
+    const uint32_t tw = tile.width(), n = tile.pixel_count();
+    std::fill_n(ws.active.begin(), n, uint8_t(1));
+    if (adaptive_ && pass > 0) {
+        // Copy what the tile needs out of the tree under the stripe's shared lock.
+        const uint32_t s = quad.locks.index(tile.tx, tile.ty);
+        ws.reader_wait_s += quad.locks.lock_shared(s);
+        quad.live().active_rects(
+            sampling::PixelRect{int(tile.x0), int(tile.y0), int(tile.x1), int(tile.y1)}, ws.rects);
+        quad.locks.unlock_shared(s);
+        std::fill_n(ws.active.begin(), n, uint8_t(0));
+        for (const sampling::PixelRect &r : ws.rects) {
+            int x0 = std::max(r.x0, int(tile.x0)), x1 = std::min(r.x1, int(tile.x1));
+            int y0 = std::max(r.y0, int(tile.y0)), y1 = std::min(r.y1, int(tile.y1));
+            for (int y = y0; y < y1; ++y)
+                for (int x = x0; x < x1; ++x)
+                    ws.active[size_t(y - int(tile.y0)) * tw + size_t(x - int(tile.x0))] = 1;
+        }
+    }
+
+    bool any_active = false;
+    uint64_t samples = 0, rays = 0;
+    for (uint32_t i = 0; i < n; ++i) {
+        const uint32_t px = tile.x0 + i % tw, py = tile.y0 + i / tw;
+        const uint32_t first = film_.sample_count(px, py);
+        ws.before[i] = first;
+        if (!ws.active[i]) {
+            ws.after[i] = first;
+            ++ws.pixels_skipped;
+            continue;
+        }
+        any_active = true;
+        // The film's count is the pixel's next index: each pixel continues its own sequence.
+        for (uint32_t index = first; index < target; ++index) {
+            CameraSample cs = TileScheduler::camera_sample(options_.seed, px, py, index);
+            Sample s = source_.evaluate(cs);
+            rays += s.rays;
+            ++samples;
+            film_.add_sample(px, py, index, s);
+        }
+        ws.after[i] = std::max(first, target);
+        if (adaptive_ && target > first)
+            error_snapshot_[size_t(py) * film_.width() + px].store(
+                sampling::pixel_error(film_.pixel_stats(px, py), options_.min_samples_for_error),
+                std::memory_order_relaxed);
+    }
+    if (any_active)
+        ++ws.tiles_rendered;
+    else
+        ++ws.tiles_skipped;
+    ws.samples += samples;
+    ws.rays += rays;
+    ws.render_s += seconds_since(t0);
+    if (ctx.progress)
+        ctx.progress->add(samples, rays);
+
+    if (options_.visit_hook) {
+        TileVisit v;
+        v.tile = &tile;
+        v.pass = pass;
+        v.target = target;
+        v.quadrant = q;
+        v.skipped = !any_active;
+        v.active = std::span<const uint8_t>(ws.active.data(), n);
+        v.count_before = std::span<const uint32_t>(ws.before.data(), n);
+        v.count_after = std::span<const uint32_t>(ws.after.data(), n);
+        options_.visit_hook(v);
+    }
+    // Release: the next pass of this tile (maybe on another thread) sees our film writes.
+    done.store(pass + 1, std::memory_order_release);
+    done.notify_all();
+}
+
+void AdaptiveScheduler::rebuild_quadrant(int q, RenderContext &ctx, WorkerState &ws) {
+    Quadrant &quad = *quadrants_[size_t(q)];
+    if (quad.rect.empty())
+        return;
+    auto t0 = Clock::now();
+    const uint32_t w = film_.width(), h = film_.height();
+    const sampling::PixelRect &g = quad.grown, &r = quad.rect;
+    sampling::ErrorImage &errors = quad.errors;
+    if (errors.width != g.x1 || errors.height != g.y1) {
+        errors.width = g.x1;
+        errors.height = g.y1;
+        errors.error.assign(size_t(g.x1) * size_t(g.y1), kInfF);
+    }
+    // Copy the grown rectangle out of the atomic snapshot; sum the quadrant's own pixels for the
+    // progress estimate.
+    double sum = 0;
+    uint64_t unknown = 0;
+    for (int y = g.y0; y < g.y1; ++y)
+        for (int x = g.x0; x < g.x1; ++x) {
+            float e = error_snapshot_[size_t(y) * w + size_t(x)].load(std::memory_order_relaxed);
+            errors.error[size_t(y) * size_t(g.x1) + size_t(x)] = e;
+            if (x >= r.x0 && x < r.x1 && y >= r.y0 && y < r.y1) {
+                if (e < kInfF)
+                    sum += double(std::max(e, 0.f));
+                else
+                    ++unknown;
+            }
+        }
+    sampling::RegionTreeParams params;
+    params.target = options_.error_target;
+    params.split_factor = options_.split_factor;
+    // Build into the idle copy, publish it, then take each stripe's writer lock in turn: once
+    // past all of them, no reader can still be reading the old copy, which becomes the idle one
+    // of the next rebuild. Readers wait at most for one stripe's hand-over, never for a whole
+    // rebuild, and the writer holds one lock at a time (TSan's deadlock detector tracks at most
+    // 64 locks held by one thread).
+    const uint32_t idle = 1u - quad.active.load(std::memory_order_relaxed);
+    sampling::RegionTree &next = quad.trees[idle];
+    next.rebuild(errors, params);
+    const bool complete = next.complete();
+    quad.active.store(idle, std::memory_order_release);
+    ws.writer_wait_s += quad.locks.sweep();
+
+    quad.error_sum.store(sum, std::memory_order_relaxed);
+    quad.unknown_pixels.store(unknown, std::memory_order_relaxed);
+    if (complete)
+        ctx.open_mask.fetch_and(~(1u << q), std::memory_order_relaxed);
+    else
+        ctx.open_mask.fetch_or(1u << q, std::memory_order_relaxed);
+    const double s = seconds_since(t0);
+    ws.rebuild_s += s;
+    ++quad.rebuilds;
+    quad.rebuild_ms_sum += s * 1e3;
+    quad.rebuild_ms_max = std::max(quad.rebuild_ms_max, s * 1e3);
+
+    if (ctx.progress) {
+        double total = 0;
+        bool known = true;
+        for (const auto &qq : quadrants_) {
+            total += qq->error_sum.load(std::memory_order_relaxed);
+            known = known && qq->unknown_pixels.load(std::memory_order_relaxed) == 0;
+        }
+        ctx.progress->set_error(known ? total / (double(w) * double(h))
+                                      : std::numeric_limits<double>::infinity());
+    }
+}
+
+void AdaptiveScheduler::finish_tile_nonbarrier(size_t t, RenderContext &ctx, WorkerState &ws) {
+    const int q = int(tile_quadrant_[t]);
+    Quadrant &quad = *quadrants_[size_t(q)];
+    if (quad.left.fetch_sub(1, std::memory_order_acq_rel) != 1)
+        return;
+    // Last one out of this quadrant's pass. Re-arm: threads may already have counted tiles of
+    // the next pass(es) (the count went negative); the add accounts for them, and a count still
+    // <= 0 means that further passes of this quadrant completed meanwhile (paper, section 4.1).
+    // Only the thread that saw the count reach zero adds, and the count stays <= 0 until it
+    // does, so no other thread can be re-arming at the same time.
+    const int64_t n = int64_t(quad.tiles.size());
+    uint32_t completed = 1;
+    while (quad.left.fetch_add(n, std::memory_order_acq_rel) + n <= 0)
+        ++completed;
+    const uint32_t passes = quad.passes_done.fetch_add(completed) + completed;
+    if (ctx.progress)
+        ctx.progress->set_passes(uint32_t(ctx.first_pass) + passes);
+    if (!adaptive_)
+        return;
+    // Rebuild while the others keep rendering. If this quadrant's previous rebuild is still
+    // running (a pass went by faster than a rebuild: skipped tiles, oversubscription), do not
+    // wait for it: its thread rebuilds once more, from the newest errors, for every request
+    // that arrived meanwhile (combining), and this thread goes back to rendering.
+    if (quad.rebuild_requests.fetch_add(1, std::memory_order_acq_rel) != 0)
+        return;
+    uint32_t seen = 1;
+    for (;;) {
+        {
+            // Uncontended: only the combining thread takes it.
+            ws.writer_wait_s += lock_timed(quad.rebuild_mutex);
+            std::lock_guard<std::mutex> lock(quad.rebuild_mutex, std::adopt_lock);
+            rebuild_quadrant(q, ctx, ws);
+            if (ctx.open_mask.load(std::memory_order_relaxed) == 0) {
+                ctx.converged.store(true, std::memory_order_relaxed);
+                ctx.stop.store(true, std::memory_order_relaxed);
+            }
+        }
+        const uint32_t before = quad.rebuild_requests.fetch_sub(seen, std::memory_order_acq_rel);
+        if (before == seen)
+            break;
+        seen = before - seen;
+        ++ws.coalesced_rebuilds;
+    }
+}
+
+namespace {
+
+// The hand-off to and from TBB's workers happens inside libtbb, which the TSan build does not
+// instrument, so TSan cannot see that the caller's writes happen before the tasks run (it would
+// flag the tasks' first reads, even of the task's own closure). The caller releases, and every
+// task acquires, a fixed address, before any closure is read. (TBB's own header code still
+// races in TSan's eyes; tests/tsan.supp can silence exactly that with `race_top:tbb::detail`,
+// which matches only races whose innermost frame is TBB's, and `called_from_lib:libtbb.so`.)
+// The asm memory clobbers keep the compiler from moving the closures' loads above the acquire.
+#if defined(__SANITIZE_THREAD__)
+char g_tsan_handoff;
+void tsan_release_handoff() {
+    asm volatile("" ::: "memory");
+    __tsan_release(&g_tsan_handoff);
+}
+void tsan_acquire_handoff() {
+    __tsan_acquire(&g_tsan_handoff);
+    asm volatile("" ::: "memory");
+}
+#else
+void tsan_release_handoff() {}
+void tsan_acquire_handoff() {}
+#endif
+
+// Runs body(i) for i in [0, threads) on the arena, one task each (each drains a shared work
+// index, so tiles start in Morton order whatever the partitioner does), and returns when all are
+// done. Workers release the merge mutex last, so taking it after the join orders their writes
+// before the caller's reads (for TSan too).
+template <class Ctx, class Body>
+void run_workers(tbb::task_arena &arena, uint32_t threads, Ctx &ctx, const Body &body) {
+    tsan_release_handoff();
+    arena.execute([&] {
+        tsan_acquire_handoff();
+        // The task's closure must exist before the release the tasks acquire.
+        auto task = [&](uint32_t i) {
+            tsan_acquire_handoff();
+            body(i);
+        };
+        tsan_release_handoff();
+        tbb::parallel_for(uint32_t(0), threads, task, tbb::simple_partitioner());
+    });
+    std::lock_guard<std::mutex> join(ctx.merge_mutex);
+}
+
+}  // namespace
+
+AdaptiveStats AdaptiveScheduler::render(const std::atomic<bool> *cancel) {
+    RenderContext ctx;
+    ctx.cancel = cancel;
+    ctx.start = Clock::now();
+    ctx.timed = options_.time_s > 0;
+    ctx.deadline = ctx.start + std::chrono::duration_cast<Clock::duration>(
+                                   std::chrono::duration<double>(ctx.timed ? options_.time_s : 0));
+    AdaptiveStats stats;
+    stats.threads = threads_;
+    const uint32_t w = film_.width(), h = film_.height();
+    const uint64_t pixels = uint64_t(w) * h;
+    const uint64_t nan_before = film_.nan_count();
+
+    // Resume: start at the first pass some pixel still needs.
+    uint32_t min_taken = std::numeric_limits<uint32_t>::max();
+    for (uint32_t y = 0; y < h; ++y)
+        for (uint32_t x = 0; x < w; ++x)
+            min_taken = std::min(min_taken, film_.sample_count(x, y));
+    uint64_t n_passes = pass_count(options_);
+    if (options_.max_passes > 0) n_passes = std::min<uint64_t>(n_passes, options_.max_passes);
+    uint64_t p0 = 0;
+    if (options_.start_pass >= 0) {
+        p0 = uint64_t(options_.start_pass);
+    } else {
+        while (p0 < n_passes && pass_target(options_, p0) <= min_taken)
+            ++p0;
+    }
+    stats.first_pass = uint32_t(std::min<uint64_t>(p0, std::numeric_limits<uint32_t>::max()));
+    ctx.first_pass = p0;
+    ctx.pass_end = n_passes;
+    const size_t n_tiles = tiles_.size();
+
+    if (pixels > 0 && p0 < n_passes) {
+        ctx.progress = std::make_unique<AdaptiveProgress>(options_.progress, pixels,
+                                                          film_.total_samples(), options_);
+        for (size_t t = 0; t < n_tiles; ++t)
+            tile_done_[t].store(uint32_t(p0));
+        WorkerState main_ws;
+        uint32_t open = 0;
+        for (int q = 0; q < 4; ++q) {
+            Quadrant &quad = *quadrants_[size_t(q)];
+            quad.left.store(int64_t(quad.tiles.size()));
+            quad.passes_done = 0;
+            quad.rebuild_requests = 0;
+            quad.rebuilds = 0;
+            quad.rebuild_ms_sum = quad.rebuild_ms_max = 0;
+            quad.error_sum = 0;
+            quad.unknown_pixels = quad.rect.area() > 0 ? uint64_t(quad.rect.area()) : 0;
+            const double area = std::max(1.0, double(pixels));
+            // Unbuilt trees: every pixel active until the first rebuild.
+            quad.trees[0] = sampling::RegionTree(quad.rect, quad.grown, area);
+            quad.trees[1] = sampling::RegionTree(quad.rect, quad.grown, area);
+            if (!quad.rect.empty())
+                open |= 1u << q;
+        }
+        ctx.open_mask.store(open);
+        if (adaptive_) {
+            init_error_snapshot();
+            // Resuming past the uniform start: the trees come from the film's samples.
+            if (p0 > 0) {
+                for (int q = 0; q < 4; ++q)
+                    rebuild_quadrant(q, ctx, main_ws);
+                if (ctx.open_mask.load() == 0)
+                    ctx.converged = ctx.stop = true;
+            }
+        }
+
+        // More threads than cores: lift TBB's limit for this render (as TileScheduler).
+        std::unique_ptr<tbb::global_control> allow_more;
+        if (int(threads_) > tbb::info::default_concurrency())
+            allow_more = std::make_unique<tbb::global_control>(
+                tbb::global_control::max_allowed_parallelism, size_t(threads_));
+        tbb::task_arena arena{int(threads_)};
+
+        if (!options_.deterministic) {
+            // Barrier-free: one work index over (pass, tile) pairs for the whole render.
+            ctx.next_work.store(p0 * n_tiles);
+            const uint64_t w_end = n_passes * n_tiles;
+            auto worker = [&](uint32_t) {
+                WorkerState ws;
+                while (!ctx.should_stop()) {
+                    uint64_t item = ctx.next_work.fetch_add(1, std::memory_order_relaxed);
+                    if (item >= w_end)
+                        break;
+                    size_t t = size_t(item % n_tiles);
+                    process_tile(t, uint32_t(item / n_tiles), ctx, ws);
+                    finish_tile_nonbarrier(t, ctx, ws);
+                }
+                ws.merge_into(ctx);
+            };
+            if (!ctx.stop.load())
+                run_workers(arena, threads_, ctx, worker);
+            for (const auto &q : quadrants_)
+                stats.passes = std::max(stats.passes, q->passes_done.load());
+        } else {
+            // Deterministic: barrier after each pass, then all rebuilds on this thread.
+            for (uint64_t pass = p0; pass < n_passes && !ctx.stop.load(); ++pass) {
+                ctx.next_work.store(0);
+                auto worker = [&](uint32_t) {
+                    WorkerState ws;
+                    while (!ctx.should_stop()) {
+                        uint64_t t = ctx.next_work.fetch_add(1, std::memory_order_relaxed);
+                        if (t >= n_tiles)
+                            break;
+                        process_tile(size_t(t), uint32_t(pass), ctx, ws);
+                    }
+                    ws.merge_into(ctx);
+                };
+                run_workers(arena, threads_, ctx, worker);
+                if (ctx.stop_cancel.load() || ctx.stop_time.load())
+                    break;
+                ++stats.passes;
+                ctx.progress->set_passes(uint32_t(pass + 1));
+                if (adaptive_) {
+                    for (int q = 0; q < 4; ++q)
+                        rebuild_quadrant(q, ctx, main_ws);
+                    if (ctx.open_mask.load() == 0)
+                        ctx.converged = ctx.stop = true;
+                }
+            }
+        }
+        main_ws.merge_into(ctx);
+        ctx.progress->finish();
+    }
+
+    const AdaptiveStats &t = ctx.totals;
+    stats.samples = t.samples;
+    stats.rays = t.rays;
+    stats.tiles_rendered = t.tiles_rendered;
+    stats.tiles_skipped = t.tiles_skipped;
+    stats.pixels_skipped = t.pixels_skipped;
+    stats.lock_wait_reader_s = t.lock_wait_reader_s;
+    stats.lock_wait_writer_s = t.lock_wait_writer_s;
+    stats.lock_wait_s = t.lock_wait_reader_s + t.lock_wait_writer_s;
+    stats.tile_wait_s = t.tile_wait_s;
+    stats.render_s = t.render_s;
+    stats.rebuild_s = t.rebuild_s;
+    stats.rebuilds_coalesced = t.rebuilds_coalesced;
+    double ms_sum = 0;
+    for (int q = 0; q < 4; ++q) {
+        const Quadrant &quad = *quadrants_[size_t(q)];
+        stats.rebuilds += quad.rebuilds;
+        ms_sum += quad.rebuild_ms_sum;
+        stats.tree_rebuild_ms_max = std::max(stats.tree_rebuild_ms_max, quad.rebuild_ms_max);
+        stats.quadrant_rebuild_ms_mean[size_t(q)] =
+            quad.rebuilds ? quad.rebuild_ms_sum / quad.rebuilds : 0.0;
+    }
+    stats.tree_rebuild_ms_mean = stats.rebuilds ? ms_sum / stats.rebuilds : 0.0;
+    stats.cancelled = ctx.stop_cancel.load();
+    stats.out_of_time = ctx.stop_time.load();
+    stats.converged = ctx.converged.load();
+    stats.nan_samples = film_.nan_count() - nan_before;
+    stats.error_estimate = sampling::image_error(film_, options_.min_samples_for_error);
+    stats.spp_histogram.assign(1, 0);
+    for (uint32_t y = 0; y < h; ++y)
+        for (uint32_t x = 0; x < w; ++x) {
+            uint32_t c = film_.sample_count(x, y);
+            size_t k = c == 0 ? 0 : size_t(std::bit_width(c));
+            if (stats.spp_histogram.size() <= k)
+                stats.spp_histogram.resize(k + 1, 0);
+            ++stats.spp_histogram[k];
+        }
+    stats.wall_s = seconds_since(ctx.start);
+    stats.lock_wait_fraction =
+        stats.wall_s > 0 ? stats.lock_wait_s / (stats.wall_s * double(threads_)) : 0.0;
+    return stats;
+}
+
+}  // namespace tessera::sched

@@ -1,0 +1,250 @@
+// Progressive adaptive tile scheduler after MoonRay (Jeffery 2019, "Global Adaptive Sampling
+// Hierarchies in Production Ray Tracing", SIGGRAPH Talks), with the error metric and region
+// hierarchy of Dammertz, Hanika, Keller, Lensch 2010 ("A Hierarchical Automatic Stopping
+// Condition for Monte Carlo Global Illumination"); see DESIGN.md, "Adaptive stopping".
+//
+// Passes. Pass 0 takes every pixel to min_spp samples (the uniform start). Each later pass
+// raises the target of every ACTIVE pixel: target(p) = target(p-1) + min(target(p-1),
+// max_pass_spp), capped at max_spp (16, 32, 64, 128, 192, ... for the defaults). A pixel's
+// samples are taken in index order starting at Film::sample_count() (sample consistency, paper
+// section 3.2): a pixel that sat out passes resumes its own sequence, and a second render()
+// continues where the first stopped.
+//
+// Quadrants. The tile grid is split at tile column ceil(tiles_x / 2) and row ceil(tiles_y / 2)
+// (pixel x = 8 * ceil(tiles_x / 2), clamped to the width), so that every 8x8 tile belongs to
+// exactly one quadrant even when width / 2 is not a multiple of 8; a quadrant may be empty (an
+// image one tile wide has no right half). Each quadrant has a sampling::RegionTree over its
+// rectangle grown by one tile (clamped to the image), rebuilt from scratch after each of its
+// passes. A pixel is active when it lies in an incomplete leaf; a tile with no active pixel is
+// skipped. In pass 0, and whenever error stopping is off, every pixel is active.
+//
+// No global barrier (default, paper section 4.1). One atomic work index w hands out (pass, tile)
+// pairs in Morton order: pass = w / T, tile = w % T. Each quadrant counts its tiles down
+// atomically; the thread that brings the count to zero ("last one out turns off the lights")
+// re-arms it with fetch_add(tiles of the quadrant), which accounts for tiles of the next pass
+// already counted, and rebuilds the tree while the other threads keep rendering. A tile reads
+// its quadrant's tree under the shared lock of its own stripe of the quadrant's StripedRwLocks
+// (scheduler/striped_locks.h) only while it computes its active pixels. The tree is double
+// buffered: the rebuild writes the idle copy, publishes it with an atomic index, then takes each
+// stripe's writer lock in turn (a sweep), after which no reader still uses the old copy.
+// Different quadrants rebuild concurrently. If a quadrant finishes another pass while its
+// previous rebuild still runs, the last thread out does not wait: the running rebuilder
+// rebuilds once more from the newest errors for all such requests (combining).
+//
+// Memory beyond the film: 4 bytes per pixel of atomic error snapshot, plus per quadrant an error
+// image over [0, grown.x1) x [0, grown.y1) (about 2.5 floats per pixel in all).
+//
+// Data-race freedom (the TSan job builds this with -DTESSERA_TSAN=ON):
+//  - film pixels are written only by the thread rendering their tile; the same tile of the next
+//    pass waits (std::atomic wait/notify on the tile's completed-pass counter) until this one is
+//    done, so a pixel never has two writers and its samples stay in index order;
+//  - the rebuild never reads the film: each tile publishes its pixels' Dammertz errors into an
+//    atomic per-pixel error snapshot after rendering them, and the rebuild copies the snapshot;
+//  - a tree copy is read only under a stripe's reader lock, and rewritten only after the writer
+//    swept every stripe since the copy stopped being the published one.
+// Trees may be stale when a thread starts a tile of the next pass before the quadrant's rebuild
+// has finished, so the image depends on timing. `deterministic = true` instead puts a barrier
+// between passes (all tiles of pass p, then all four rebuilds on the calling thread): the film is
+// then bit-identical for any thread count.
+//
+// Stopping. The render stops when every quadrant's tree is complete ("converged": the region
+// error of every leaf is below error_target), when the passes reach max_spp, when the time budget
+// runs out, or on cancel (checked between tiles; tiles in flight finish, so the film stays
+// consistent and its counts exact). With error_target 0 or adaptive = false the render is
+// uniform and stops at max_spp.
+#pragma once
+
+#include <array>
+#include <atomic>
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "sampling/film.h"
+#include "sampling/region_tree.h"
+#include "sampling/sample_source.h"
+#include "scheduler/progress.h"
+#include "scheduler/tiles.h"
+
+namespace tessera::sched {
+
+class StripedRwLocks;
+
+/// What a tile visit did (for tests and diagnostics; see AdaptiveOptions::visit_hook).
+struct TileVisit {
+    const Tile *tile = nullptr;
+    uint32_t pass = 0;      ///< absolute pass index (0: the uniform start)
+    uint32_t target = 0;    ///< the pass's per-pixel sample target
+    uint32_t quadrant = 0;  ///< 0..3: top-left, top-right, bottom-left, bottom-right
+    bool skipped = false;   ///< no pixel of the tile was active
+    /// Per tile pixel, row-major over the tile: 1 when active in this visit.
+    std::span<const uint8_t> active;
+    /// Per tile pixel: the film's sample count before and after the visit.
+    std::span<const uint32_t> count_before, count_after;
+};
+
+/// Settings of the adaptive scheduler.
+struct AdaptiveOptions {
+    uint32_t min_spp = 16;    ///< samples per pixel of the uniform first pass (>= 1)
+    uint32_t max_spp = 1024;  ///< per-pixel cap (0: unlimited; needs time_s or error_target)
+    double time_s = 0;        ///< wall-clock budget in seconds (0: none)
+    /// Region error (Dammertz e_b) below which a region is complete; 0: no error stopping
+    /// (uniform sampling to max_spp).
+    double error_target = 0;
+    bool adaptive = true;        ///< false: uniform passes (every pixel active)
+    bool deterministic = false;  ///< barrier between passes: bit-identical for any thread count
+    uint32_t threads = 0;        ///< worker threads (0: TBB's default concurrency)
+    uint32_t seed = 0;           ///< sequence seed of the film offsets (as TileScheduler)
+    uint32_t max_pass_spp = 64;  ///< largest pass in samples per pixel (0: passes keep doubling)
+    /// Accepted samples a pixel needs before it has an error estimate (below: +inf, open).
+    uint32_t min_samples_for_error = 4;
+    double split_factor = 256;   ///< RegionTreeParams::split_factor
+    uint32_t lock_stripes = 64;  ///< RW locks per quadrant (rounded to a power of 2, >= 8)
+    ProgressReporter::Mode progress = ProgressReporter::Mode::Auto;
+    /// Resume at this absolute pass index (checkpoints record it); -1: the first pass some pixel
+    /// still needs. With `deterministic`, N passes + resume at N == the same passes straight.
+    int64_t start_pass = -1;
+    /// Stop after this absolute pass index is complete (passes 0 .. max_passes-1); 0: no limit.
+    uint32_t max_passes = 0;
+    /// Called by the rendering thread at the start of every tile visit, before the tree is read
+    /// (tests: delays, bookkeeping). May be empty. Must be thread-safe.
+    std::function<void(const Tile &, uint32_t pass)> tile_hook;
+    /// Called by the rendering thread after every tile visit (rendered or skipped), while it
+    /// still owns the tile's pixels. May be empty. Must be thread-safe.
+    std::function<void(const TileVisit &)> visit_hook;
+};
+
+/// What a render() did.
+struct AdaptiveStats {
+    uint64_t samples = 0;         ///< samples taken in this call (dropped ones included)
+    uint64_t rays = 0;            ///< sum of Sample::rays
+    uint64_t nan_samples = 0;     ///< samples the film dropped for non-finite radiance
+    double wall_s = 0;            ///< wall time of render(), seconds
+    uint32_t passes = 0;          ///< completed passes (the maximum over the quadrants)
+    uint32_t first_pass = 0;      ///< absolute index of the first pass this call rendered
+    uint32_t threads = 0;         ///< worker threads
+    bool cancelled = false;       ///< stopped by the cancel flag
+    bool out_of_time = false;     ///< stopped by the time budget
+    bool converged = false;       ///< every quadrant's tree complete (error target reached)
+    uint64_t tiles_rendered = 0;  ///< tile visits that took samples or had active pixels
+    uint64_t tiles_skipped = 0;   ///< tile visits skipped: the tile lay in completed regions
+    uint64_t pixels_skipped = 0;  ///< pixel visits skipped because their region was complete
+    /// Seconds threads waited to acquire the trees' locks, summed over threads:
+    /// lock_wait_reader_s + lock_wait_writer_s.
+    double lock_wait_s = 0;
+    double lock_wait_reader_s = 0;  ///< tiles waiting for a stripe's shared lock
+    /// Rebuilding threads waiting for the quadrant's rebuild mutex and its stripes.
+    double lock_wait_writer_s = 0;
+    /// lock_wait_s / (wall_s * threads): the fraction of thread time spent waiting for locks.
+    double lock_wait_fraction = 0;
+    /// Seconds threads waited for the same tile's previous pass to finish (small images with
+    /// more threads than tiles), summed over threads.
+    double tile_wait_s = 0;
+    uint32_t rebuilds = 0;  ///< tree rebuilds (about one per quadrant and pass)
+    /// Rebuild requests served by a rebuild already running for the quadrant (it rebuilt once
+    /// more for all of them) instead of a wait.
+    uint32_t rebuilds_coalesced = 0;
+    double tree_rebuild_ms_max = 0;   ///< slowest rebuild of one quadrant, milliseconds
+    double tree_rebuild_ms_mean = 0;  ///< mean rebuild time of one quadrant, milliseconds
+    /// Mean rebuild time per quadrant (0..3), milliseconds (0 for an empty quadrant).
+    std::array<double, 4> quadrant_rebuild_ms_mean{};
+    /// Image error at the end (sampling::image_error, the mean Dammertz pixel error); +inf when
+    /// some pixel has no estimate.
+    double error_estimate = 0;
+    /// Final samples per pixel: [0] pixels with 0 samples, [k >= 1] pixels with spp in
+    /// [2^(k-1), 2^k).
+    std::vector<uint64_t> spp_histogram;
+    double render_s = 0;   ///< thread-seconds spent rendering tiles, summed over threads
+    double rebuild_s = 0;  ///< thread-seconds spent rebuilding trees (incl. error copies)
+    /// One readable line, e.g. for the CLI's summary.
+    std::string describe() const;
+};
+
+/// Inputs of one adaptive progress line.
+struct AdaptiveProgressState {
+    uint32_t passes = 0;      ///< completed passes (maximum over quadrants)
+    double mean_spp = 0;      ///< film samples / pixels
+    double error = -1;        ///< image error estimate (< 0 or +inf: unknown)
+    double error_target = 0;  ///< 0: none
+    double elapsed_s = 0;
+    double rays_per_s = 0;
+    double eta_s = -1;    ///< < 0: unknown
+    double fraction = 0;  ///< in [0, 1] for the bar
+};
+
+/// "[####....] passes 5  spp 37.2  err 0.0123/0.01  12.3 Mrays/s  ETA 0:42": completed passes,
+/// mean samples per pixel, image error / target ("n/a" while unknown), rays per second, ETA.
+/// Pure.
+std::string format_adaptive_progress_line(const AdaptiveProgressState &st, int bar_width = 20);
+
+/// Renders a SampleSource into a Film with progressive adaptive passes (see the file comment).
+/// One render() at a time per instance; the source must be thread-safe.
+class AdaptiveScheduler {
+  public:
+    /// `film` must have the source's resolution. Throws std::invalid_argument for a size
+    /// mismatch or when nothing would stop the render (max_spp 0 with neither time_s nor an
+    /// error target).
+    AdaptiveScheduler(const SampleSource &source, sampling::Film &film,
+                      AdaptiveOptions options = {});
+    ~AdaptiveScheduler();
+
+    AdaptiveScheduler(const AdaptiveScheduler &) = delete;
+    AdaptiveScheduler &operator=(const AdaptiveScheduler &) = delete;
+
+    /// Renders until converged, max_spp, the time budget or *cancel (see the file comment).
+    /// Blocks the caller. A later call resumes: each pixel continues its own sequence, and the
+    /// trees are rebuilt from the film first.
+    AdaptiveStats render(const std::atomic<bool> *cancel = nullptr);
+
+    /// The region tree of quadrant q (0..3). Not thread-safe against a running render().
+    const sampling::RegionTree &tree(int quadrant) const;
+    /// Pixel rectangle of quadrant q (may be empty).
+    sampling::PixelRect quadrant_rect(int quadrant) const;
+    /// The quadrant of the tile with Morton index t.
+    uint32_t tile_quadrant(size_t t) const { return tile_quadrant_[t]; }
+    /// The Morton-ordered tile list.
+    const std::vector<Tile> &tiles() const { return tiles_; }
+    /// Worker threads render() uses.
+    uint32_t thread_count() const { return threads_; }
+    /// True when error stopping is on (adaptive and error_target > 0).
+    bool adaptive() const { return adaptive_; }
+    const AdaptiveOptions &options() const { return options_; }
+
+    /// Cumulative per-pixel target of pass p (see the file comment). Pure.
+    static uint32_t pass_target(const AdaptiveOptions &options, uint64_t pass);
+    /// Number of passes until every pixel reaches max_spp (0 when max_spp is 0: unbounded).
+    static uint64_t pass_count(const AdaptiveOptions &options);
+    /// The targets of all passes (max_spp must be > 0). Pure.
+    static std::vector<uint32_t> pass_targets(const AdaptiveOptions &options);
+
+    /// One readable line: image, tiles, quadrants, threads, mode.
+    std::string describe() const;
+
+  private:
+    struct Quadrant;
+    struct RenderContext;
+    struct WorkerState;
+
+    void process_tile(size_t t, uint32_t pass, RenderContext &ctx, WorkerState &ws);
+    void finish_tile_nonbarrier(size_t t, RenderContext &ctx, WorkerState &ws);
+    void rebuild_quadrant(int q, RenderContext &ctx, WorkerState &ws);
+    void init_error_snapshot();
+
+    const SampleSource &source_;
+    sampling::Film &film_;
+    AdaptiveOptions options_;
+    bool adaptive_ = false;
+    uint32_t threads_ = 1;
+    std::vector<Tile> tiles_;
+    std::vector<uint32_t> tile_quadrant_;
+    std::vector<std::unique_ptr<Quadrant>> quadrants_;
+    // Last published Dammertz error of every pixel (see the file comment).
+    std::unique_ptr<std::atomic<float>[]> error_snapshot_;
+    // Per tile: passes completed (absolute pass index + 1), for the tile-order wait.
+    std::unique_ptr<std::atomic<uint32_t>[]> tile_done_;
+};
+
+}  // namespace tessera::sched
