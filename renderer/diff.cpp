@@ -28,17 +28,17 @@ void print_mean(std::ostream &out, const char *name, const std::array<double, 3>
 
 }  // namespace
 
-int run_diff(const std::string &a, const std::string &b, std::ostream &out) {
+int run_diff(const std::string &a, const std::string &b, std::ostream &out, std::ostream &err) {
     sampling::RgbImage img_a, img_b;
     try {
         img_a = read_image_rgb(a);
         img_b = read_image_rgb(b);
     } catch (const std::exception &e) {
-        out << "diff: " << e.what() << "\n";
+        err << "diff: " << e.what() << "\n";
         return 2;
     }
     if (img_a.width != img_b.width || img_a.height != img_b.height) {
-        out << "diff: image sizes differ: " << a << " is " << img_a.width << "x"
+        err << "diff: image sizes differ: " << a << " is " << img_a.width << "x"
             << img_a.height << ", " << b << " is " << img_b.width << "x" << img_b.height
             << "\n";
         return 2;

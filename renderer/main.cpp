@@ -92,7 +92,7 @@ int main(int argc, char **argv) {
     }
 
     try {
-        if (*diff) return tessera::run_diff(diff_a, diff_b, std::cout);
+        if (*diff) return tessera::run_diff(diff_a, diff_b, std::cout, std::cerr);
         if (*render) {
             if (!resolution.empty()) {
                 int w, h;

@@ -104,7 +104,8 @@ std::string SamplerSpec::describe() const {
     if (name == "adaptive") {
         os << ":error=" << (error ? *error : kDefaultErrorTarget);
         if (min_spp) os << ",min-spp=" << *min_spp;
-        os << ",max-pass-spp=" << max_pass_spp << ",split-factor=" << split_factor;
+        os << ",max-pass-spp=" << max_pass_spp << ",split-factor=" << split_factor
+           << ",min-extent=" << min_extent;
     }
     return os.str();
 }
@@ -134,6 +135,8 @@ SamplerSpec parse_sampler_spec(const std::string &text) {
             spec.max_pass_spp = uint32_t(parse_double(key, value));
         } else if (spec.name == "adaptive" && key == "split-factor") {
             spec.split_factor = std::max(1.0, parse_double(key, value));
+        } else if (spec.name == "adaptive" && key == "min-extent") {
+            spec.min_extent = std::max(1.0, parse_double(key, value));
         } else {
             throw SceneError("--sampler " + spec.name + ": unknown key \"" + key + "\"");
         }
@@ -165,6 +168,7 @@ sched::AdaptiveOptions scheduler_options(const Scene &scene, const SamplerSpec &
     o.error_target = o.adaptive ? sampler.error.value_or(kDefaultErrorTarget) : 0.0;
     o.max_pass_spp = sampler.max_pass_spp;
     o.split_factor = sampler.split_factor;
+    o.min_extent = sampler.min_extent;
     o.threads = threads;
     o.seed = scene.settings.seed;
     o.progress = quiet ? sched::ProgressReporter::Mode::Never : sched::ProgressReporter::Mode::Auto;
@@ -198,6 +202,20 @@ RenderReport run_render(const RenderOptions &opt) {
     std::error_code ec;
     if (!dir.empty() && !fs::is_directory(dir, ec))
         throw SceneError(exr + ":0: the output folder does not exist");
+    if (!opt.stats_path.empty()) {
+        fs::path sdir = fs::path(opt.stats_path).parent_path();
+        if (!sdir.empty() && !fs::is_directory(sdir, ec))
+            throw SceneError(opt.stats_path + ":0: the folder for --stats does not exist");
+    }
+    // Resolve the display transform now: a bad OCIO config must fail before hours of rendering.
+    std::optional<DisplayTransform> display;
+    if (opt.write_png) {
+        try {
+            display.emplace(opt.display);
+        } catch (const std::exception &e) {
+            throw SceneError(std::string("--ocio-config/--display/--view:0: ") + e.what());
+        }
+    }
     std::string checkpoint = opt.checkpoint;
     if (checkpoint.empty()) {
         fs::path c(exr);
@@ -281,7 +299,8 @@ RenderReport run_render(const RenderOptions &opt) {
     write_film_exr(exr, film, eo, {ImageLayer{"error", {"Y"}, errors.error, true}});
     if (opt.write_png) {
         sampling::RgbImage img(film.width(), film.height(), film.beauty_rgb());
-        write_display_image(png, img, opt.display);
+        std::vector<uint8_t> rgb8 = display->to_8bit(img);
+        write_rgb8(png, img.width, img.height, rgb8);
     }
     if (rep.stats.cancelled || !opt.checkpoint.empty()) {
         cs.passes = rep.passes_total;

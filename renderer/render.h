@@ -18,13 +18,16 @@ namespace tessera {
 inline constexpr double kDefaultErrorTarget = 0.002;
 
 /// A sampler selection: `uniform`, or `adaptive[:key=value,...]` with keys error, min-spp,
-/// max-pass-spp, split-factor.
+/// max-pass-spp, split-factor, min-extent.
 struct SamplerSpec {
     std::string name = "adaptive";
     std::optional<double> error;
     std::optional<uint32_t> min_spp;
     uint32_t max_pass_spp = 64;
     double split_factor = 256;
+    /// Narrowest region a split may create, pixels. One tile: narrower leaves chase the noise
+    /// of single pixels' error estimates (salt-and-pepper sample maps; measured in the notes).
+    double min_extent = 8;
     /// One line, e.g. "adaptive:error=0.002,min-spp=16".
     std::string describe() const;
 };

@@ -6,8 +6,9 @@
 #   asan: configure build-asan with -DTESSERA_SANITIZE=ON (AddressSanitizer + UBSan, Debug with
 #         -O1), build, run `ctest -LE slow` there. UBSan findings fail the test that hits them
 #         (UBSAN_OPTIONS=halt_on_error=1, set by tests/CMakeLists.txt).
-#   tsan: configure build-tsan with -DTESSERA_TSAN=ON, build the scheduler tests and the CLI,
-#         run `ctest -L tsan` (the scheduler tests, which own all threads). Debian's libtbb is not
+#   tsan: configure build-tsan with -DTESSERA_TSAN=ON, build the scheduler tests
+#         (tests/scheduler/test_*.cpp: test_tile_scheduler, ...), run `ctest -L tsan` (the
+#         scheduler owns all threads). Debian's libtbb is not
 #         instrumented, so races reported inside TBB internals are false positives:
 #         tests/tsan.supp suppresses those (TSAN_OPTIONS=suppressions=...); races in Tessera's
 #         own code are still reported and fail the test.
@@ -30,7 +31,7 @@ run_asan() {
     cmake --build "$asan_dir" -j "$jobs" || return 1
     # The sanitizer environment is set per test by tests/CMakeLists.txt; these are defaults for
     # anything run by hand from this shell.
-    export ASAN_OPTIONS="${ASAN_OPTIONS:-detect_leaks=1}"
+    export ASAN_OPTIONS="${ASAN_OPTIONS:-detect_leaks=1:new_delete_type_mismatch=0}"
     export UBSAN_OPTIONS="${UBSAN_OPTIONS:-halt_on_error=1:print_stacktrace=1}"
     (cd "$asan_dir" && ctest --output-on-failure -j "$jobs" -LE slow ${CTEST_ARGS:-})
 }
@@ -39,7 +40,10 @@ run_tsan() {
     echo "== TSan: $tsan_dir"
     cmake -S "$root" -B "$tsan_dir" -DCMAKE_BUILD_TYPE=Debug -DCMAKE_CXX_FLAGS_DEBUG="-g -O1" \
         -DTESSERA_TSAN=ON -DTESSERA_BUILD_BENCHMARKS=OFF || return 1
-    cmake --build "$tsan_dir" -j "$jobs" --target test_tile_scheduler test_tiles || return 1
+    # Only the scheduler tests (label tsan, one per tests/scheduler/test_*.cpp) are built.
+    local targets=()
+    for f in "$root"/tests/scheduler/test_*.cpp; do targets+=("$(basename "$f" .cpp)"); done
+    cmake --build "$tsan_dir" -j "$jobs" --target "${targets[@]}" || return 1
     export TSAN_OPTIONS="${TSAN_OPTIONS:-halt_on_error=1:second_deadlock_stack=1:suppressions=$root/tests/tsan.supp}"
     (cd "$tsan_dir" && ctest --output-on-failure -j 1 -L tsan ${CTEST_ARGS:-})
 }

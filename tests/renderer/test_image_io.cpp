@@ -215,7 +215,7 @@ TEST_CASE("tessera diff prints metrics and fails on bad input") {
     write_exr(pa, 2, 1, a);
     write_exr(pb, 2, 1, b);
     std::ostringstream out;
-    CHECK(run_diff(pa, pb, out) == 0);
+    CHECK(run_diff(pa, pb, out, out) == 0);
     std::string text = out.str();
     // MSE per channel: R 0.005, G 0.5, B 0.02, total 0.175; relMSE G = 50.
     auto row = [&](const std::string &name) {
@@ -245,8 +245,8 @@ TEST_CASE("tessera diff prints metrics and fails on bad input") {
     std::string pc = (dir / "c.exr").string();
     write_exr(pc, 2, 2, c);
     std::ostringstream out2, out3;
-    CHECK(run_diff(pa, pc, out2) == 2);
+    CHECK(run_diff(pa, pc, out, out2) == 2);
     CHECK(out2.str().find("sizes differ") != std::string::npos);
-    CHECK(run_diff(pa, (dir / "missing.exr").string(), out3) == 2);
+    CHECK(run_diff(pa, (dir / "missing.exr").string(), out, out3) == 2);
     CHECK(!out3.str().empty());
 }
