@@ -25,8 +25,8 @@
 #include <stdexcept>
 
 #include "sampling/adaptive_error.h"
+#include "scheduler/camera_sample.h"
 #include "scheduler/striped_locks.h"
-#include "scheduler/tile_scheduler.h"
 
 namespace tessera::sched {
 
@@ -490,7 +490,7 @@ void AdaptiveScheduler::process_tile(size_t t, uint32_t pass, RenderContext &ctx
         any_active = true;
         // The film's count is the pixel's next index: each pixel continues its own sequence.
         for (uint32_t index = first; index < target; ++index) {
-            CameraSample cs = TileScheduler::camera_sample(options_.seed, px, py, index);
+            CameraSample cs = camera_sample(options_.seed, px, py, index);
             Sample s = source_.evaluate(cs);
             rays += s.rays;
             ++samples;
@@ -560,6 +560,7 @@ void AdaptiveScheduler::rebuild_quadrant(int q, RenderContext &ctx, WorkerState 
     sampling::RegionTreeParams params;
     params.target = options_.error_target;
     params.split_factor = options_.split_factor;
+    params.min_extent = options_.min_extent;
     // Build into the idle copy, publish it, then take each stripe's writer lock in turn: once
     // past all of them, no reader can still be reading the old copy, which becomes the idle one
     // of the next rebuild. Readers wait at most for one stripe's hand-over, never for a whole
@@ -754,7 +755,8 @@ AdaptiveStats AdaptiveScheduler::render(const std::atomic<bool> *cancel) {
             }
         }
 
-        // More threads than cores: lift TBB's limit for this render (as TileScheduler).
+        // More threads than cores: lift TBB's limit for this render, or the arena silently runs
+        // with fewer workers.
         std::unique_ptr<tbb::global_control> allow_more;
         if (int(threads_) > tbb::info::default_concurrency())
             allow_more = std::make_unique<tbb::global_control>(

@@ -97,11 +97,12 @@ struct AdaptiveOptions {
     bool adaptive = true;        ///< false: uniform passes (every pixel active)
     bool deterministic = false;  ///< barrier between passes: bit-identical for any thread count
     uint32_t threads = 0;        ///< worker threads (0: TBB's default concurrency)
-    uint32_t seed = 0;           ///< sequence seed of the film offsets (as TileScheduler)
+    uint32_t seed = 0;           ///< sequence seed of the film offsets (scheduler/camera_sample.h)
     uint32_t max_pass_spp = 64;  ///< largest pass in samples per pixel (0: passes keep doubling)
     /// Accepted samples a pixel needs before it has an error estimate (below: +inf, open).
     uint32_t min_samples_for_error = 4;
     double split_factor = 256;   ///< RegionTreeParams::split_factor
+    double min_extent = 1;       ///< RegionTreeParams::min_extent: narrowest region, pixels
     uint32_t lock_stripes = 64;  ///< RW locks per quadrant (rounded to a power of 2, >= 8)
     ProgressReporter::Mode progress = ProgressReporter::Mode::Auto;
     /// Resume at this absolute pass index (checkpoints record it); -1: the first pass some pixel

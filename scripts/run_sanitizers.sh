@@ -7,7 +7,7 @@
 #         -O1), build, run `ctest -LE slow` there. UBSan findings fail the test that hits them
 #         (UBSAN_OPTIONS=halt_on_error=1, set by tests/CMakeLists.txt).
 #   tsan: configure build-tsan with -DTESSERA_TSAN=ON, build the scheduler tests
-#         (tests/scheduler/test_*.cpp: test_tile_scheduler, ...), run `ctest -L tsan` (the
+#         (tests/scheduler/test_*.cpp), run `ctest -L tsan` (the
 #         scheduler owns all threads). Debian's libtbb is not
 #         instrumented, so races reported inside TBB internals are false positives:
 #         tests/tsan.supp suppresses those (TSAN_OPTIONS=suppressions=...); races in Tessera's

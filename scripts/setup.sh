@@ -6,7 +6,8 @@
 #   scripts/setup.sh build    install dependencies and build only
 #
 # Environment: BUILD_DIR (default build), JOBS (default: number of cores), CTEST_ARGS (extra
-# arguments for ctest, e.g. "-L unit"), SKIP_APT=1 to skip the package step.
+# arguments for ctest, e.g. "-L unit"), SKIP_APT=1 to skip the package step, TSAN=0 to skip the
+# ThreadSanitizer run of the scheduler tests that `test` does after the Release suite.
 set -euo pipefail
 
 mode="${1:-render}"
@@ -57,9 +58,14 @@ case "$mode" in
     echo "setup: wrote renders/cornell-box.exr, renders/cornell-box.png and renders/cornell-box.json"
     ;;
   test)
-    cd "$build"
     # Slow tests are labelled "slow" and run only when asked (CTEST_ARGS="-L slow").
-    ctest --output-on-failure -j "$jobs" -LE slow ${CTEST_ARGS:-}
+    (cd "$build" && ctest --output-on-failure -j "$jobs" -LE slow ${CTEST_ARGS:-})
+    # The scheduler owns every thread: its tests (label tsan) also run in a ThreadSanitizer
+    # build of the layers below the renderer (quick: no Embree code). TSAN=0 skips it.
+    if [[ "${TSAN:-1}" == "1" ]]; then
+      JOBS="$jobs" TSAN_BUILD_DIR="${TSAN_BUILD_DIR:-$root/build-tsan}" \
+        "$root/scripts/run_sanitizers.sh" tsan
+    fi
     ;;
   build) ;;
   *)
