@@ -223,6 +223,28 @@ bad_ocio_config)
     expect_stderr_line 'missing\.ocio'
     expect_no_output out
     ;;
+sigint)
+    # Ctrl-C finishes the tiles in flight, then writes the image, a checkpoint and the stats,
+    # and exits 0; --resume continues from that checkpoint.
+    write_good_scene scene.pbrt
+    "$tessera" render scene.pbrt -o out.exr --stats out.json --resolution 256x256 \
+        --spp 1000000 --sampler uniform -q >stdout.txt 2>stderr.txt &
+    pid=$!
+    sleep 1.5
+    kill -INT "$pid"
+    wait "$pid"
+    rc=$?
+    expect_rc 0
+    for f in out.exr out.png out.json out.checkpoint.exr; do
+        [[ -s "$f" ]] || fail "$f was not written after SIGINT"
+    done
+    python3 -c "import json,sys; s=json.load(open('out.json')); sys.exit(0 if s['cancelled'] else 1)" \
+        || fail "stats do not say cancelled"
+    run render scene.pbrt -o resumed.exr --resolution 256x256 --spp 4 --sampler uniform \
+        --resume out.checkpoint.exr -q
+    expect_rc 0
+    [[ -s resumed.exr ]] || fail "resumed render wrote no image"
+    ;;
 *)
     fail "unknown case"
     ;;
