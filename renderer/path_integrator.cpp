@@ -87,7 +87,9 @@ Sample PathIntegrator::evaluate(const CameraSample &cs) const {
     CameraRay cray = scene_.camera->generate_ray(p_raster, u_lens, scene_.features.textures);
     PathResult r = trace(cray, sampler);
     Sample s;
-    s.radiance = r.L;
+    s.radiance = r.L * scene_.settings.image_scale;
+    float m = s.radiance.max_value();
+    if (m > scene_.settings.max_component) s.radiance *= scene_.settings.max_component / m;
     s.albedo = r.albedo;
     s.normal = r.normal;
     s.depth = r.depth;

@@ -40,6 +40,11 @@ struct RenderSettings {
     bool regularize = false;
     uint32_t seed = 0;
     std::string output;              ///< Film "filename" (pbrt default "pbrt.exr")
+    /// pbrt-v4 sensor imaging ratio: (shutterclose - shutteropen) * Film "iso" / 100.
+    float image_scale = 1.f;
+    /// Film "maxcomponentvalue": a sample's RGB is scaled down so its largest component is at
+    /// most this (pbrt-v4 RGBFilm::AddSample); +inf = off.
+    float max_component = kInfinity;
     std::string scene_file;
 };
 

@@ -74,10 +74,15 @@ void apply_settings(const SceneDesc &d, const SceneOverrides &ov, Scene &sc) {
         if (ps.find("cropwindow") || ps.find("pixelbounds"))
             warn(d.film.loc, "\"cropwindow\"/\"pixelbounds\" are not supported: the whole film "
                              "is rendered");
+        // pbrt-v4's PixelSensor scales the image by imagingRatio = exposure time * ISO / 100
+        // (for every sensor, the default "cie1931" included; the exposure time comes from the
+        // camera's shutter below), and RGBFilm clamps each sample's largest component.
+        s.image_scale = ps.get_float("iso", 100.f) / 100.f;
+        s.max_component = ps.get_float("maxcomponentvalue", kInfinity);
         for (const char *ignored : {"cropwindow", "pixelbounds", "diagonal", "savefp16",
-                                    "sensor", "iso", "whitebalance", "maxcomponentvalue"}) {
+                                    "sensor", "whitebalance"}) {
             if (const Param *p = ps.find(ignored)) {
-                if (std::string(ignored) == "iso" || std::string(ignored) == "whitebalance" ||
+                if (std::string(ignored) == "whitebalance" ||
                     (std::string(ignored) == "sensor" &&
                      ps.get_string("sensor", "cie1931") != "cie1931"))
                     warn(p->loc, std::string("Film \"") + ignored +
@@ -170,8 +175,10 @@ void apply_settings(const SceneDesc &d, const SceneOverrides &ov, Scene &sc) {
             else
                 sw = {-1.f, 1.f, -1.f / far, 1.f / far};
         }
-        for (const char *shutter : {"shutteropen", "shutterclose"})
-            if (const Param *p = cp.find(shutter)) p->used = true;
+        // The exposure time scales the image (pbrt-v4 PixelSensor imagingRatio); motion blur
+        // itself is not supported.
+        float open = cp.get_float("shutteropen", 0.f), close = cp.get_float("shutterclose", 1.f);
+        s.image_scale *= std::max(0.f, close - open);
         cp.report_unused("Camera");
     }
     sc.camera = std::make_unique<PerspectiveCamera>(d.camera_from_world, s.width, s.height, fov,
