@@ -452,17 +452,19 @@ TEST_CASE("float image maps of colour images: RGB average, or alpha when it is n
     }
     write("rgb.exr", 3, rgb);
     write("rgba.exr", 4, rgba);
-    std::vector<TextureDesc> descs(2);
-    for (int i = 0; i < 2; ++i) {
-        descs[size_t(i)].name = i ? "a" : "c";
-        descs[size_t(i)].value_type = "float";
-        descs[size_t(i)].tex_class = "imagemap";
+    auto float_map = [&](std::string name, const std::string &file) {
+        TextureDesc d;
+        d.name = std::move(name);
+        d.value_type = "float";
+        d.tex_class = "imagemap";
         Param f;
         f.type = "string";
         f.name = "filename";
-        f.strings = {(dir / (i ? "rgba.exr" : "rgb.exr")).string()};
-        descs[size_t(i)].params.params.push_back(f);
-    }
+        f.strings = {(dir / file).string()};
+        d.params.params.push_back(f);
+        return d;
+    };
+    std::vector<TextureDesc> descs = {float_map("c", "rgb.exr"), float_map("a", "rgba.exr")};
     TextureSet set(descs);
     TextureEvalContext ctx;
     ctx.uv = {0.5f, 0.5f};
