@@ -1,6 +1,10 @@
 #include "renderer/geometry.h"
 
+#include "renderer/texture.h"
+
 #include <embree3/rtcore_ray.h>
+
+#include <cstring>
 
 #include <cmath>
 #include <cstdio>
@@ -145,6 +149,60 @@ const std::vector<std::unique_ptr<TriangleMesh>> &Geometry::top_level_meshes() c
     return groups_[0]->meshes;
 }
 
+namespace {
+
+/// pbrt-v4's HashFloat(ray.o, ray.d): a uniform value in [0, 1) from the ray's bits.
+float hash_ray(float ox, float oy, float oz, float dx, float dy, float dz) {
+    float v[6] = {ox, oy, oz, dx, dy, dz};
+    uint32_t w[6];
+    std::memcpy(w, v, sizeof(w));
+    uint64_t h = 0xcbf29ce484222325ull;
+    for (uint32_t x : w) h = (h ^ x) * 0x100000001b3ull;
+    h ^= h >> 33;
+    h *= 0xff51afd7ed558ccdull;
+    h ^= h >> 33;
+    return float(h >> 40) * 0x1p-24f;
+}
+
+/// The alpha test of one candidate hit: false rejects it.
+bool alpha_accepts(const TriangleMesh &m, unsigned prim, float b1, float b2, Vec3f o, Vec3f d,
+                   float t) {
+    float a = m.alpha;
+    if (m.alpha_texture) {
+        uint32_t i0 = m.indices[3 * prim], i1 = m.indices[3 * prim + 1],
+                 i2 = m.indices[3 * prim + 2];
+        float b0 = 1.f - b1 - b2;
+        TextureEvalContext tc;
+        tc.p = o + d * t;
+        if (!m.uv.empty())
+            tc.uv = m.uv[i0] * b0 + m.uv[i1] * b1 + m.uv[i2] * b2;
+        else
+            tc.uv = Vec2f(0, 0) * b0 + Vec2f(1, 0) * b1 + Vec2f(1, 1) * b2;
+        a = m.alpha_texture->evaluate(tc);
+    }
+    if (a >= 1.f) return true;
+    if (a <= 0.f) return false;
+    return hash_ray(o.x, o.y, o.z, d.x, d.y, d.z) <= a;
+}
+
+/// Embree filter for both closest-hit and occlusion queries of alpha-tested meshes.
+void alpha_filter(const RTCFilterFunctionNArguments *args) {
+    const TriangleMesh &m = *static_cast<const TriangleMesh *>(args->geometryUserPtr);
+    for (unsigned i = 0; i < args->N; ++i) {
+        if (args->valid[i] != -1) continue;
+        Vec3f o{RTCRayN_org_x(args->ray, args->N, i), RTCRayN_org_y(args->ray, args->N, i),
+                RTCRayN_org_z(args->ray, args->N, i)};
+        Vec3f d{RTCRayN_dir_x(args->ray, args->N, i), RTCRayN_dir_y(args->ray, args->N, i),
+                RTCRayN_dir_z(args->ray, args->N, i)};
+        float t = RTCRayN_tfar(args->ray, args->N, i);
+        unsigned prim = RTCHitN_primID(args->hit, args->N, i);
+        float u = RTCHitN_u(args->hit, args->N, i), v = RTCHitN_v(args->hit, args->N, i);
+        if (!alpha_accepts(m, prim, u, v, o, d, t)) args->valid[i] = 0;
+    }
+}
+
+}  // namespace
+
 void Geometry::add_mesh(int group, TriangleMesh mesh) {
     GeometryGroup &g = *groups_.at(size_t(group));
     if (mesh.indices.empty()) return;
@@ -157,6 +215,12 @@ void Geometry::add_mesh(int group, TriangleMesh mesh) {
     rtcSetSharedGeometryBuffer(geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3,
                                m->indices.data(), 0, 3 * sizeof(uint32_t),
                                m->triangle_count());
+    if (m->alpha_texture || m->alpha < 1.f) {
+        // Only cut-out meshes pay for filter callbacks.
+        rtcSetGeometryUserData(geom, m.get());
+        rtcSetGeometryIntersectFilterFunction(geom, alpha_filter);
+        rtcSetGeometryOccludedFilterFunction(geom, alpha_filter);
+    }
     rtcCommitGeometry(geom);
     unsigned id = rtcAttachGeometry(g.scene, geom);
     rtcReleaseGeometry(geom);

@@ -19,6 +19,8 @@
 
 namespace tessera {
 
+class FloatTexture;
+
 /// Triangle mesh in the space of the group it is added to.
 struct TriangleMesh {
     std::vector<Vec3f> p;
@@ -29,6 +31,11 @@ struct TriangleMesh {
     int material = -1;
     /// Area lights per triangle (nullptr entries when not emissive); empty for non-emissive meshes.
     std::vector<const Light *> lights;
+    /// pbrt's "alpha" cut-out: a texture (evaluated at the hit's uv) or a constant in [0, 1).
+    /// Hits where alpha is 0 are ignored; 0 < alpha < 1 keeps a hit with probability alpha,
+    /// decided by a hash of the ray (pbrt-v4 GeometricPrimitive::Intersect). Null and 1: opaque.
+    const FloatTexture *alpha_texture = nullptr;
+    float alpha = 1.f;
     size_t triangle_count() const { return indices.size() / 3; }
     /// Unit geometric normal of triangle `tri` on its emitting side (pbrt-v4 Triangle::Sample).
     Vec3f oriented_normal(size_t tri) const;

@@ -313,12 +313,6 @@ std::optional<TriangleMesh> triangles_of(const ShapeDesc &sd, const Transform &x
 
 void warn_shape_params(const ShapeDesc &sd) {
     const ParamSet &ps = sd.params;
-    if (const Param *a = ps.find("alpha")) {
-        a->used = true;
-        bool opaque = a->type == "float" && !a->numbers.empty() && a->numbers[0] >= 1.0;
-        if (!opaque)
-            warn(a->loc, "\"alpha\" cut-outs are not supported; the shape is rendered opaque");
-    }
     if (const Param *e = ps.find("emissionfilename")) {
         e->used = true;
         warn(e->loc, "\"emissionfilename\" is not supported; ignored");
@@ -346,6 +340,15 @@ struct Builder {
                              "AreaLightSource \"" + sd.area_light_type + "\" is not supported");
         if (std::optional<TriangleMesh> m = triangles_of(sd, xf)) {
             m->material = material;
+            if (const Param *a = sd.params.find("alpha")) {
+                if (a->type == "texture") {
+                    m->alpha_texture = sc.textures->float_param(sd.params, "alpha", 1.f);
+                } else {
+                    m->alpha = clamp(sd.params.get_float("alpha", 1.f), 0.f, 1.f);
+                }
+                if (emissive && (m->alpha_texture || m->alpha < 1.f))
+                    warn(a->loc, "\"alpha\" does not mask the emission of area lights");
+            }
             if (emissive) {
                 m->lights.assign(m->triangle_count(), nullptr);
                 for (size_t t = 0; t < m->triangle_count(); ++t) {
@@ -368,6 +371,13 @@ struct Builder {
         }
         if (sd.type == "sphere" || sd.type == "disk") {
             const ParamSet &ps = sd.params;
+            if (const Param *a = ps.find("alpha")) {
+                a->used = true;
+                bool opaque = a->type == "float" && !a->numbers.empty() && a->numbers[0] >= 1.0;
+                if (!opaque)
+                    warn(a->loc, "\"alpha\" on spheres and disks is not supported; rendered "
+                                 "opaque");
+            }
             Quadric q;
             q.render_from_object = xf;
             q.material = material;
