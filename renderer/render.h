@@ -15,7 +15,7 @@ namespace tessera {
 
 /// Default region error target of the adaptive sampler (Dammertz e_b; see
 /// sampling/region_tree.h). Chosen with the benchmark in scripts/bench_adaptive.sh.
-inline constexpr double kDefaultErrorTarget = 0.002;
+inline constexpr double kDefaultErrorTarget = 0.001;
 
 /// A sampler selection: `uniform`, or `adaptive[:key=value,...]` with keys error, min-spp,
 /// max-pass-spp, split-factor, min-extent.

@@ -42,7 +42,7 @@ def main():
     ap.add_argument("--tessera", default=os.path.join(os.path.dirname(__file__), "..", "build", "tessera"))
     ap.add_argument("--res", default="240x180")
     ap.add_argument("--time", type=float, default=20.0, help="cap on the adaptive run (s)")
-    ap.add_argument("--error", default="0.002", help="adaptive error target(s), comma-separated")
+    ap.add_argument("--error", default="0.001", help="adaptive error target(s), comma-separated")
     ap.add_argument("--max-spp", type=int, default=65536)
     ap.add_argument("--extra", default="", help="extra adaptive keys, e.g. min-extent=8")
     ap.add_argument("--ref-spp", type=int, default=4096)
