@@ -486,7 +486,7 @@ std::optional<BsdfSample> CoatedDiffuseBxdf::sample_f(Vec3f wo, float uc, Vec2f 
 // ---------------------------------------------------------------------------------------------
 // Bsdf
 
-Rgb Bsdf::f(Vec3f wo_world, Vec3f wi_world, TransportMode mode) const {
+Rgb Bsdf::f_general(Vec3f wo_world, Vec3f wi_world, TransportMode mode) const {
     Vec3f wo = frame_.to_local(wo_world), wi = frame_.to_local(wi_world);
     std::optional<Vec3f> o = unit_direction(wo), i = unit_direction(wi);
     if (!o || !i || o->z == 0.f)
@@ -495,10 +495,28 @@ Rgb Bsdf::f(Vec3f wo_world, Vec3f wi_world, TransportMode mode) const {
     return r.is_finite() ? r : Rgb();
 }
 
-std::optional<BsdfSample> Bsdf::sample_f(Vec3f wo_world, float uc, Vec2f u,
-                                         TransportMode mode) const {
+Rgb Bsdf::f_pdf_general(Vec3f wo_world, Vec3f wi_world, float *pdf_out,
+                        TransportMode mode) const {
+    *pdf_out = 0.f;
+    Vec3f wo = frame_.to_local(wo_world), wi = frame_.to_local(wi_world);
+    std::optional<Vec3f> o = unit_direction(wo), i = unit_direction(wi);
+    if (!o || !i || o->z == 0.f)
+        return {};
+    float p = 0.f;
+    Rgb r = std::visit(
+        [&](const auto &b) {
+            p = b.pdf(*o, *i, mode);
+            return b.f(*o, *i, mode);
+        },
+        bxdf_);
+    *pdf_out = std::isfinite(p) ? p : 0.f;
+    return r.is_finite() ? r : Rgb();
+}
+
+std::optional<BsdfSample> Bsdf::sample_f_general(Vec3f wo_world, float uc, Vec2f u,
+                                                 TransportMode mode) const {
     std::optional<Vec3f> wo = unit_direction(frame_.to_local(wo_world));
-    if (!wo || wo->z == 0.f || flags() == kBxdfUnset)
+    if (!wo || wo->z == 0.f || flags_ == kBxdfUnset)
         return std::nullopt;
     std::optional<BsdfSample> s =
         std::visit([&](const auto &b) { return b.sample_f(*wo, uc, u, mode); }, bxdf_);
@@ -509,7 +527,7 @@ std::optional<BsdfSample> Bsdf::sample_f(Vec3f wo_world, float uc, Vec2f u,
     return s;
 }
 
-float Bsdf::pdf(Vec3f wo_world, Vec3f wi_world, TransportMode mode) const {
+float Bsdf::pdf_general(Vec3f wo_world, Vec3f wi_world, TransportMode mode) const {
     std::optional<Vec3f> o = unit_direction(frame_.to_local(wo_world));
     std::optional<Vec3f> i = unit_direction(frame_.to_local(wi_world));
     if (!o || !i || o->z == 0.f)
@@ -518,8 +536,8 @@ float Bsdf::pdf(Vec3f wo_world, Vec3f wi_world, TransportMode mode) const {
     return std::isfinite(p) ? p : 0.f;
 }
 
-uint8_t Bsdf::flags() const {
-    return std::visit([](const auto &b) { return b.flags(); }, bxdf_);
+uint8_t Bsdf::compute_flags(const Bxdf &b) {
+    return std::visit([](const auto &x) { return x.flags(); }, b);
 }
 
 Rgb Bsdf::albedo_hint() const {

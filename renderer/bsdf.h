@@ -43,6 +43,7 @@
 
 #include "renderer/microfacet.h"
 #include "sampling/vecmath.h"
+#include "sampling/warp.h"
 
 namespace tessera {
 
@@ -182,25 +183,47 @@ using Bxdf = std::variant<DiffuseBxdf, ConductorBxdf, DielectricBxdf, CoatedDiff
 /// scatters nothing. Plain value, thread-safe.
 class Bsdf {
   public:
-    Bsdf() = default;
-    Bsdf(const Frame &shading_frame, Bxdf bxdf) : frame_(shading_frame), bxdf_(bxdf) {}
+    Bsdf() : flags_(compute_flags(bxdf_)) {}
+    Bsdf(const Frame &shading_frame, Bxdf bxdf)
+        : frame_(shading_frame), bxdf_(bxdf), flags_(compute_flags(bxdf_)) {}
 
     /// BSDF value (no cosine) for the pair; 0 for delta lobes. Units: 1/sr.
-    Rgb f(Vec3f wo_world, Vec3f wi_world, TransportMode mode = TransportMode::Radiance) const;
+    Rgb f(Vec3f wo_world, Vec3f wi_world, TransportMode mode = TransportMode::Radiance) const {
+        if (const DiffuseBxdf *d = std::get_if<DiffuseBxdf>(&bxdf_))
+            return diffuse_f(*d, wo_world, wi_world);
+        return f_general(wo_world, wi_world, mode);
+    }
+    /// f() and pdf() of the same pair in one call (one dispatch, one frame transform).
+    Rgb f_pdf(Vec3f wo_world, Vec3f wi_world, float *pdf_out,
+              TransportMode mode = TransportMode::Radiance) const {
+        if (const DiffuseBxdf *d = std::get_if<DiffuseBxdf>(&bxdf_)) {
+            *pdf_out = diffuse_pdf(wo_world, wi_world);
+            return diffuse_f(*d, wo_world, wi_world);
+        }
+        return f_pdf_general(wo_world, wi_world, pdf_out, mode);
+    }
     /// Samples wi (world space in the result) from canonical uc in [0,1) (lobe choice) and u in
     /// [0,1)^2 (direction). nullopt when no direction is produced (TIR in a rough interface,
     /// a microfacet reflection below the horizon, wo in the tangent plane, zero f or pdf).
     std::optional<BsdfSample> sample_f(Vec3f wo_world, float uc, Vec2f u,
-                                       TransportMode mode = TransportMode::Radiance) const;
+                                       TransportMode mode = TransportMode::Radiance) const {
+        if (const DiffuseBxdf *d = std::get_if<DiffuseBxdf>(&bxdf_))
+            return diffuse_sample_f(*d, wo_world, u);
+        return sample_f_general(wo_world, uc, u, mode);
+    }
     /// Solid-angle density with which sample_f returns wi_world (non-delta part only).
-    float pdf(Vec3f wo_world, Vec3f wi_world, TransportMode mode = TransportMode::Radiance) const;
+    float pdf(Vec3f wo_world, Vec3f wi_world, TransportMode mode = TransportMode::Radiance) const {
+        if (std::holds_alternative<DiffuseBxdf>(bxdf_))
+            return diffuse_pdf(wo_world, wi_world);
+        return pdf_general(wo_world, wi_world, mode);
+    }
     /// Union of the lobes' BxdfFlags.
-    uint8_t flags() const;
+    uint8_t flags() const { return flags_; }
     /// Colour for an albedo AOV: diffuse/base reflectance, the normal-incidence Fresnel
     /// reflectance of a conductor, 1 for a dielectric.
     Rgb albedo_hint() const;
     /// True when some lobe is diffuse or glossy (light sampling / MIS is worthwhile).
-    bool has_non_specular() const { return flags() & (kBxdfDiffuse | kBxdfGlossy); }
+    bool has_non_specular() const { return flags_ & (kBxdfDiffuse | kBxdfGlossy); }
 
     const Frame &frame() const { return frame_; }
     const Bxdf &bxdf() const { return bxdf_; }
@@ -208,8 +231,50 @@ class Bsdf {
     Vec3f to_world(Vec3f w) const { return frame_.to_world(w); }
 
   private:
+    static uint8_t compute_flags(const Bxdf &b);
+    Rgb f_general(Vec3f wo_world, Vec3f wi_world, TransportMode mode) const;
+    Rgb f_pdf_general(Vec3f wo_world, Vec3f wi_world, float *pdf_out, TransportMode mode) const;
+    std::optional<BsdfSample> sample_f_general(Vec3f wo_world, float uc, Vec2f u,
+                                               TransportMode mode) const;
+    float pdf_general(Vec3f wo_world, Vec3f wi_world, TransportMode mode) const;
+
+    // Lambertian fast paths: equal to the generic code (which normalises the local directions)
+    // up to rounding; only the sign of cos theta matters for f and for wo.
+    Rgb diffuse_f(const DiffuseBxdf &d, Vec3f wo_world, Vec3f wi_world) const {
+        float co = dot(wo_world, frame_.z), ci = dot(wi_world, frame_.z);
+        if (!(co * ci > 0.f)) return {};
+        Rgb r = d.reflectance * kInvPi;
+        return r.is_finite() ? r : Rgb();
+    }
+    float diffuse_pdf(Vec3f wo_world, Vec3f wi_world) const {
+        float co = dot(wo_world, frame_.z), ci = dot(wi_world, frame_.z);
+        if (!(co * ci > 0.f)) return 0.f;
+        float l2 = length_squared(wi_world);
+        if (!(std::abs(l2 - 1.f) < 1e-6f)) ci /= std::sqrt(l2);
+        float p = sampling::cosine_hemisphere_pdf(std::abs(ci));
+        return std::isfinite(p) ? p : 0.f;
+    }
+    std::optional<BsdfSample> diffuse_sample_f(const DiffuseBxdf &d, Vec3f wo_world,
+                                               Vec2f u) const {
+        float co = dot(wo_world, frame_.z);
+        if (co == 0.f || std::isnan(co) || flags_ == kBxdfUnset) return std::nullopt;
+        Vec3f wi = sampling::square_to_cosine_hemisphere(u);
+        if (co < 0.f) wi.z = -wi.z;
+        float pdf = sampling::cosine_hemisphere_pdf(std::abs(wi.z));
+        Rgb f = d.reflectance * kInvPi;
+        if (!(pdf > 0.f) || f.is_black() || !f.is_finite() || !std::isfinite(pdf))
+            return std::nullopt;
+        BsdfSample s;
+        s.f = f;
+        s.wi = frame_.to_world(wi);
+        s.pdf = pdf;
+        s.flags = kBxdfReflection | kBxdfDiffuse;
+        return s;
+    }
+
     Frame frame_;
     Bxdf bxdf_;
+    uint8_t flags_ = kBxdfUnset;
 };
 
 }  // namespace tessera

@@ -27,6 +27,12 @@ std::optional<PowerLightSampler::Sampled> PowerLightSampler::sample(float u,
 }
 
 float PowerLightSampler::pmf(const Light *light) const {
+    // A few lights (the common case): a scan beats hashing.
+    if (lights_.size() <= kScanLimit) {
+        for (size_t i = 0; i < lights_.size(); ++i)
+            if (lights_[i] == light) return table_.pmf(i);
+        return 0.f;
+    }
     auto it = index_.find(light);
     return it == index_.end() ? 0.f : table_.pmf(it->second);
 }

@@ -41,6 +41,7 @@ class PowerLightSampler {
     std::string describe() const;
 
   private:
+    static constexpr size_t kScanLimit = 8;  ///< pmf() scans up to this many lights
     std::vector<const Light *> lights_;
     sampling::AliasTable table_;
     std::unordered_map<const Light *, size_t> index_;

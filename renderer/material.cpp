@@ -36,11 +36,17 @@ Frame shading_frame(const SurfaceInteraction &si) { return Frame::from_xz(si.dpd
 
 class DiffuseMaterial final : public Material {
   public:
-    explicit DiffuseMaterial(const SpectrumTexture *reflectance) : reflectance_(reflectance) {}
+    explicit DiffuseMaterial(const SpectrumTexture *reflectance) : reflectance_(reflectance) {
+        if (std::optional<Rgb> c = reflectance_->constant_value()) {
+            constant_ = true;
+            constant_reflectance_ = clamp_unit(*c);
+        }
+    }
     std::optional<Bsdf> get_bsdf(const SurfaceInteraction &si,
                                  const TextureEvalContext &tc) const override {
         DiffuseBxdf b;
-        b.reflectance = clamp_unit(reflectance_->evaluate(tc));
+        b.reflectance =
+            constant_ ? constant_reflectance_ : clamp_unit(reflectance_->evaluate(tc));
         return Bsdf(shading_frame(si), b);
     }
     uint8_t possible_flags() const override { return kBxdfReflection | kBxdfDiffuse; }
@@ -53,6 +59,8 @@ class DiffuseMaterial final : public Material {
 
   private:
     const SpectrumTexture *reflectance_;
+    bool constant_ = false;       ///< reflectance_ is constant: use the cached value
+    Rgb constant_reflectance_{};  ///< clamp_unit(reflectance_) when constant_
 };
 
 class ConductorMaterial final : public Material {

@@ -190,21 +190,23 @@ PathIntegrator::PathResult PathIntegrator::trace(const CameraRay &cray,
             if (auto sampled = sc.light_sampler->sample(u_light)) {
                 const Light *light = sampled->light;
                 if (auto ls = light->sample_li(ctx, u2); ls && !ls->L.is_black() && ls->pdf > 0) {
-                    Rgb f = bsdf->f(si.wo, ls->wi) * absdot(ls->wi, si.ns);
+                    LightType lt = light->type();
+                    const bool delta = is_delta_light(lt);
+                    float p_b = 0.f;
+                    Rgb f = (!delta && use_bsdf_emission) ? bsdf->f_pdf(si.wo, ls->wi, &p_b)
+                                                          : bsdf->f(si.wo, ls->wi);
+                    f *= absdot(ls->wi, si.ns);
                     if (!f.is_black()) {
-                        LightType lt = light->type();
                         Ray shadow = (lt == LightType::Infinite || lt == LightType::DeltaDirection)
                                          ? si.spawn_ray(ls->wi)
                                          : si.spawn_ray_to(ls->p_light);
                         ++res.rays;
                         if (!sc.geometry->occluded(shadow)) {
                             float p_l = sampled->pmf * ls->pdf;
-                            if (is_delta_light(lt)) {
+                            if (delta) {
                                 L += beta * f * ls->L / p_l;
                             } else {
-                                float w = use_bsdf_emission
-                                              ? power_heuristic(p_l, bsdf->pdf(si.wo, ls->wi))
-                                              : 1.f;
+                                float w = use_bsdf_emission ? power_heuristic(p_l, p_b) : 1.f;
                                 L += beta * f * ls->L * (w / p_l);
                             }
                         }

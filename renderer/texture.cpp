@@ -236,6 +236,7 @@ class ConstantTexture final : public TexBase<T>::type {
   public:
     explicit ConstantTexture(T v) : v_(v) {}
     T evaluate(const TextureEvalContext &) const override { return v_; }
+    std::optional<T> constant_value() const override { return v_; }
     std::string describe() const override { return "constant " + fmt(v_); }
 
   private:

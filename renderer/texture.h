@@ -43,6 +43,8 @@ class FloatTexture {
     virtual ~FloatTexture() = default;
     /// Texture value at `ctx` (unitless; e.g. roughness, eta, amount).
     virtual float evaluate(const TextureEvalContext &ctx) const = 0;
+    /// The value if the texture is constant (evaluate() ignores ctx), else nullopt.
+    virtual std::optional<float> constant_value() const { return std::nullopt; }
     /// One-line description for logs.
     virtual std::string describe() const = 0;
 };
@@ -53,6 +55,8 @@ class SpectrumTexture {
     virtual ~SpectrumTexture() = default;
     /// Linear RGB at `ctx`. Never negative for image maps (pbrt clamps them at zero).
     virtual Rgb evaluate(const TextureEvalContext &ctx) const = 0;
+    /// The value if the texture is constant (evaluate() ignores ctx), else nullopt.
+    virtual std::optional<Rgb> constant_value() const { return std::nullopt; }
     /// One-line description for logs.
     virtual std::string describe() const = 0;
 };
