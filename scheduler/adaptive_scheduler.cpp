@@ -745,6 +745,22 @@ AdaptiveStats AdaptiveScheduler::render(const std::atomic<bool> *cancel) {
         }
         ctx.open_mask.store(open);
         if (adaptive_) {
+            // Allocate and touch every rebuild buffer now (both tree copies' summed-area tables
+            // and the error image), so that page faults do not land inside the timed,
+            // lock-holding rebuilds. A rebuild from an all-unknown error image leaves each tree
+            // one open leaf: every pixel stays active until the first real rebuild.
+            for (int q = 0; q < 4; ++q) {
+                Quadrant &quad = *quadrants_[size_t(q)];
+                if (quad.rect.empty()) continue;
+                const sampling::PixelRect &g = quad.grown;
+                quad.errors.width = g.x1;
+                quad.errors.height = g.y1;
+                quad.errors.error.assign(size_t(g.x1) * size_t(g.y1), kInfF);
+                sampling::RegionTreeParams warm;
+                warm.target = options_.error_target;
+                quad.trees[0].rebuild(quad.errors, warm);
+                quad.trees[1].rebuild(quad.errors, warm);
+            }
             init_error_snapshot();
             // Resuming past the uniform start: the trees come from the film's samples.
             if (p0 > 0) {
