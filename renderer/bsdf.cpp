@@ -540,11 +540,42 @@ uint8_t Bsdf::compute_flags(const Bxdf &b) {
     return std::visit([](const auto &x) { return x.flags(); }, b);
 }
 
+std::optional<BsdfSample> ThinDielectricBxdf::sample_f(Vec3f wo, float uc, Vec2f,
+                                                       TransportMode) const {
+    float cos_o = std::abs(wo.z);
+    if (cos_o == 0.f) return std::nullopt;
+    float R = fr_dielectric(cos_o, eta), T = 1.f - R;
+    // Sum the geometric series of reflections inside the slab.
+    if (R < 1.f) {
+        R += T * T * R / (1.f - R * R);
+        T = 1.f - R;
+    }
+    BsdfSample s;
+    if (uc < R / (R + T)) {
+        s.wi = {-wo.x, -wo.y, wo.z};
+        s.f = Rgb(R / cos_o);
+        s.pdf = R / (R + T);
+        s.flags = kBxdfReflection | kBxdfSpecular;
+    } else {
+        s.wi = -wo;
+        s.f = Rgb(T / cos_o);
+        s.pdf = T / (R + T);
+        s.flags = kBxdfTransmission | kBxdfSpecular;
+        s.eta = 1.f;
+    }
+    return s;
+}
+
+uint8_t ThinDielectricBxdf::flags() const {
+    return kBxdfReflection | kBxdfTransmission | kBxdfSpecular;
+}
+
 Rgb Bsdf::albedo_hint() const {
     struct Visitor {
         Rgb operator()(const DiffuseBxdf &b) const { return b.reflectance; }
         Rgb operator()(const ConductorBxdf &b) const { return fr_complex(1.f, b.eta, b.k); }
         Rgb operator()(const DielectricBxdf &) const { return Rgb(1.f); }
+        Rgb operator()(const ThinDielectricBxdf &) const { return Rgb(1.f); }
         Rgb operator()(const CoatedDiffuseBxdf &b) const { return b.reflectance; }
     };
     return std::visit(Visitor{}, bxdf_);

@@ -120,6 +120,19 @@ struct DielectricBxdf {
     uint8_t flags() const;
 };
 
+/// pbrt-v4 "thindielectric": a thin slab with parallel faces (a window pane). Light either
+/// reflects specularly with R' = R + T^2 R / (1 - R^2), summing the inter-reflections inside
+/// the slab, or passes straight through (wi = -wo, no refraction, no radiance scaling) with
+/// T' = 1 - R' (pbrt-v4 ThinDielectricBxDF). Purely specular.
+struct ThinDielectricBxdf {
+    float eta = 1.5f;
+
+    Rgb f(Vec3f, Vec3f, TransportMode) const { return Rgb(0.f); }
+    std::optional<BsdfSample> sample_f(Vec3f wo, float uc, Vec2f u, TransportMode mode) const;
+    float pdf(Vec3f, Vec3f, TransportMode) const { return 0.f; }
+    uint8_t flags() const;
+};
+
 /// pbrt-v4 "coateddiffuse": a dielectric coat (IOR eta, GGX roughness) over a Lambertian base
 /// with an absorbing layer of the given thickness in between.
 ///
@@ -176,7 +189,8 @@ struct CoatedDiffuseBxdf {
 /// outside, Fdr_ext(eta) = 2 int_0^1 F(mu, eta) mu dmu, for eta >= 1 (tabulated once; thread-safe).
 float fresnel_diffuse_reflectance(float eta);
 
-using Bxdf = std::variant<DiffuseBxdf, ConductorBxdf, DielectricBxdf, CoatedDiffuseBxdf>;
+using Bxdf = std::variant<DiffuseBxdf, ConductorBxdf, DielectricBxdf, ThinDielectricBxdf,
+                          CoatedDiffuseBxdf>;
 
 /// A Bxdf with its shading frame; takes and returns world-space unit directions. Directions
 /// passed in are normalised here. A direction exactly in the tangent plane (wo.z == 0 locally)

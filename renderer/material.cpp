@@ -14,11 +14,14 @@ struct Roughness {
     const FloatTexture *u = nullptr, *v = nullptr;
     bool remap = true;
 
-    static Roughness from(const ParamSet &ps, TextureSet &tex) {
+    /// `prefix`: "" for most materials, "conductor." for coatedconductor's base.
+    static Roughness from(const ParamSet &ps, TextureSet &tex, const std::string &prefix = "") {
         Roughness r;
-        const FloatTexture *rough = tex.float_param(ps, "roughness", 0.f);
-        r.u = ps.find("uroughness") ? tex.float_param(ps, "uroughness", 0.f) : rough;
-        r.v = ps.find("vroughness") ? tex.float_param(ps, "vroughness", 0.f) : rough;
+        const FloatTexture *rough = tex.float_param(ps, prefix + "roughness", 0.f);
+        r.u = ps.find(prefix + "uroughness") ? tex.float_param(ps, prefix + "uroughness", 0.f)
+                                             : rough;
+        r.v = ps.find(prefix + "vroughness") ? tex.float_param(ps, prefix + "vroughness", 0.f)
+                                             : rough;
         r.remap = ps.get_bool("remaproughness", true);
         return r;
     }
@@ -111,6 +114,26 @@ class DielectricMaterial final : public Material {
   private:
     float eta_;
     Roughness rough_;
+};
+
+/// pbrt-v4 "thindielectric": a window pane (ThinDielectricBxdf).
+class ThinDielectricMaterial final : public Material {
+  public:
+    explicit ThinDielectricMaterial(float eta) : eta_(eta) {}
+    std::optional<Bsdf> get_bsdf(const SurfaceInteraction &si,
+                                 const TextureEvalContext &) const override {
+        ThinDielectricBxdf b;
+        b.eta = eta_;
+        return Bsdf(shading_frame(si), b);
+    }
+    uint8_t possible_flags() const override {
+        return kBxdfReflection | kBxdfTransmission | kBxdfSpecular;
+    }
+    bool textured() const override { return false; }
+    std::string describe() const override { return "thindielectric eta " + std::to_string(eta_); }
+
+  private:
+    float eta_;
 };
 
 class CoatedDiffuseMaterial final : public Material {
@@ -263,18 +286,39 @@ int MaterialSet::build(const std::string &name, const std::map<std::string, Mate
     mark("displacement");
     mark("normalmap");
 
-    if (type == "thindielectric") {
-        warn(d.loc, "\"thindielectric\" is approximated by \"dielectric\"");
-        type = "dielectric";
-    } else if (type == "coatedconductor") {
-        warn(d.loc, "\"coatedconductor\" is approximated by \"conductor\" (no coat)");
-        type = "conductor";
+    if (type == "coatedconductor") {
+        // pbrt-v4's parameters are "conductor.eta", "conductor.k", "conductor.roughness",
+        // "reflectance" for the base and "interface.*" for the coat, which is dropped.
+        warn(d.loc, "\"coatedconductor\" is approximated by its base conductor (no "
+                    "dielectric coat)");
+        for (const char *coat : {"interface.roughness", "interface.uroughness",
+                                 "interface.vroughness", "interface.eta", "thickness", "albedo",
+                                 "g", "maxdepth", "nsamples"})
+            if (const Param *p = ps.find(coat)) p->used = true;
+        const SpectrumTexture *refl = tex.spectrum_param(ps, "reflectance", std::nullopt, false);
+        const SpectrumTexture *eta = nullptr, *k = nullptr;
+        if (!refl) {
+            eta = tex.spectrum_param(ps, "conductor.eta", copper(false), true);
+            k = tex.spectrum_param(ps, "conductor.k", copper(true), true);
+        }
+        m = std::make_unique<ConductorMaterial>(eta, k, refl,
+                                                Roughness::from(ps, tex, "conductor."));
     } else if (type == "diffusetransmission") {
-        warn(d.loc, "\"diffusetransmission\" is approximated by \"diffuse\" (no transmission)");
-        type = "diffuse";
+        // pbrt-v4 defaults: reflectance 0.25, transmittance 0.25, scale 1.
+        warn(d.loc, "\"diffusetransmission\" is approximated by \"diffuse\" (its "
+                    "transmission is dropped)");
+        if (const Param *p = ps.find("transmittance")) p->used = true;
+        float scale = ps.get_float("scale", 1.f);
+        Rgb r(0.25f);
+        if (ps.get_texture("reflectance").empty())
+            if (std::optional<Rgb> c = ps.get_rgb("reflectance", false, false)) r = *c;
+        m = std::make_unique<DiffuseMaterial>(
+            tex.spectrum_param(ps, "reflectance", r * scale, false));
     }
 
-    if (type == "diffuse") {
+    if (m) {
+        // Built above.
+    } else if (type == "diffuse") {
         m = std::make_unique<DiffuseMaterial>(
             tex.spectrum_param(ps, "reflectance", Rgb(0.5f), false));
     } else if (type == "conductor") {
@@ -288,10 +332,12 @@ int MaterialSet::build(const std::string &name, const std::map<std::string, Mate
     } else if (type == "dielectric") {
         m = std::make_unique<DielectricMaterial>(scalar_eta(ps, d.loc, 1.5f),
                                                  Roughness::from(ps, tex));
+    } else if (type == "thindielectric") {
+        m = std::make_unique<ThinDielectricMaterial>(scalar_eta(ps, d.loc, 1.5f));
     } else if (type == "coateddiffuse") {
-        if (ps.get_int("maxdepth", 10) != 10 || ps.get_int("nsamples", 1) != 1) {
-            // Random-walk controls of pbrt's stochastic layered BSDF: no closed-form meaning.
-        }
+        // Random-walk controls of pbrt's stochastic layered BSDF: no closed-form meaning.
+        for (const char *walk : {"maxdepth", "nsamples"})
+            if (const Param *p = ps.find(walk)) p->used = true;
         m = std::make_unique<CoatedDiffuseMaterial>(
             tex.spectrum_param(ps, "reflectance", Rgb(0.5f), false),
             tex.spectrum_param(ps, "albedo", Rgb(0.f), false),

@@ -1,9 +1,11 @@
 // pbrt-v4 materials: turn texture-evaluated parameters into a Bsdf at a shading point.
 //
-// Supported: diffuse, conductor, dielectric, coateddiffuse (closed-form layered approximation,
-// see CoatedDiffuseBxdf), interface (no surface: rays pass through), mix (pbrt-v4's
-// deterministic per-point choice). Others are approximated with a warning naming file:line
-// (thindielectric -> dielectric, coatedconductor -> conductor, diffusetransmission -> diffuse).
+// Supported: diffuse, conductor, dielectric, thindielectric, coateddiffuse (closed-form layered
+// approximation, see CoatedDiffuseBxdf), interface (no surface: rays pass through), mix
+// (pbrt-v4's deterministic per-point choice). Approximated with a warning naming file:line:
+// coatedconductor -> its base conductor (pbrt's "conductor.*" parameters; the coat is dropped),
+// diffusetransmission -> diffuse with pbrt's reflectance default 0.25 and "scale" (no
+// transmission); unknown types -> diffuse 0.5.
 // Parameter names and defaults are pbrt-v4's (materials.cpp); see bsdf.h for the models.
 #pragma once
 
