@@ -35,8 +35,6 @@ struct Roughness {
     }
 };
 
-Frame shading_frame(const SurfaceInteraction &si) { return Frame::from_xz(si.dpdu, si.ns); }
-
 class DiffuseMaterial final : public Material {
   public:
     explicit DiffuseMaterial(const SpectrumTexture *reflectance) : reflectance_(reflectance) {
@@ -50,7 +48,7 @@ class DiffuseMaterial final : public Material {
         DiffuseBxdf b;
         b.reflectance =
             constant_ ? constant_reflectance_ : clamp_unit(reflectance_->evaluate(tc));
-        return Bsdf(shading_frame(si), b);
+        return Bsdf(frame(si, tc), b);
     }
     uint8_t possible_flags() const override { return kBxdfReflection | kBxdfDiffuse; }
     bool textured() const override { return true; }
@@ -82,7 +80,7 @@ class ConductorMaterial final : public Material {
             b.eta = eta_->evaluate(tc);
             b.k = k_->evaluate(tc);
         }
-        return Bsdf(shading_frame(si), b);
+        return Bsdf(frame(si, tc), b);
     }
     uint8_t possible_flags() const override {
         return kBxdfReflection | kBxdfGlossy | kBxdfSpecular;
@@ -103,7 +101,7 @@ class DielectricMaterial final : public Material {
         DielectricBxdf b;
         b.eta = eta_;
         b.distrib = rough_.eval(tc);
-        return Bsdf(shading_frame(si), b);
+        return Bsdf(frame(si, tc), b);
     }
     uint8_t possible_flags() const override {
         return kBxdfReflection | kBxdfTransmission | kBxdfSpecular | kBxdfGlossy;
@@ -121,10 +119,10 @@ class ThinDielectricMaterial final : public Material {
   public:
     explicit ThinDielectricMaterial(float eta) : eta_(eta) {}
     std::optional<Bsdf> get_bsdf(const SurfaceInteraction &si,
-                                 const TextureEvalContext &) const override {
+                                 const TextureEvalContext &tc) const override {
         ThinDielectricBxdf b;
         b.eta = eta_;
-        return Bsdf(shading_frame(si), b);
+        return Bsdf(frame(si, tc), b);
     }
     uint8_t possible_flags() const override {
         return kBxdfReflection | kBxdfTransmission | kBxdfSpecular;
@@ -149,7 +147,7 @@ class CoatedDiffuseMaterial final : public Material {
                             rough_.eval(tc), thickness_->evaluate(tc),
                             DiffuseMaterial::clamp_unit(albedo_->evaluate(tc)),
                             g_->evaluate(tc));
-        return Bsdf(shading_frame(si), b);
+        return Bsdf(frame(si, tc), b);
     }
     uint8_t possible_flags() const override {
         return kBxdfReflection | kBxdfDiffuse | kBxdfGlossy | kBxdfSpecular;
@@ -242,6 +240,30 @@ float scalar_eta(const ParamSet &ps, const FileLoc &loc, float def) {
 
 }  // namespace
 
+Frame Material::frame(const SurfaceInteraction &si, const TextureEvalContext &tc) const {
+    if (!displacement_) return Frame::from_xz(si.dpdu, si.ns);
+    // pbrt-v4 BumpMap (materials.h): shift the lookup by half the uv footprint along u and v.
+    float du = 0.5f * (std::abs(tc.dudx) + std::abs(tc.dudy));
+    if (du == 0.f) du = 0.0005f;
+    float dv = 0.5f * (std::abs(tc.dvdx) + std::abs(tc.dvdy));
+    if (dv == 0.f) dv = 0.0005f;
+    TextureEvalContext shifted = tc;
+    shifted.p = tc.p + si.dpdu * du;
+    shifted.uv = Vec2f(tc.uv.x + du, tc.uv.y);
+    float u_displace = displacement_->evaluate(shifted);
+    shifted.p = tc.p + si.dpdv * dv;
+    shifted.uv = Vec2f(tc.uv.x, tc.uv.y + dv);
+    float v_displace = displacement_->evaluate(shifted);
+    float displace = displacement_->evaluate(tc);
+    Vec3f dpdu = si.dpdu + si.ns * ((u_displace - displace) / du);
+    Vec3f dpdv = si.dpdv + si.ns * ((v_displace - displace) / dv);
+    Vec3f ns = cross(dpdu, dpdv);
+    float len = length(ns);
+    if (!(len > 0.f) || !std::isfinite(len)) return Frame::from_xz(si.dpdu, si.ns);
+    ns = face_forward(ns / len, si.ns);
+    return Frame::from_xz(dpdu, ns);
+}
+
 MaterialSet::MaterialSet(const std::map<std::string, MaterialDesc> &descs, TextureSet &textures) {
     for (const auto &[name, desc] : descs) build(name, descs, textures, 0);
 }
@@ -276,8 +298,12 @@ int MaterialSet::build(const std::string &name, const std::map<std::string, Mate
     const ParamSet &ps = d.params;
     std::unique_ptr<Material> m;
     std::string type = d.type;
-    if (ps.find("displacement"))
-        warn(d.loc, "bump mapping (\"displacement\") is not supported; ignored");
+    const FloatTexture *displacement = nullptr;
+    if (ps.find("displacement")) {
+        // A constant displacement moves nothing: only textures bump the normal.
+        if (!ps.get_texture("displacement").empty())
+            displacement = tex.float_param(ps, "displacement", 0.f);
+    }
     if (ps.find("normalmap"))
         warn(d.loc, "normal mapping (\"normalmap\") is not supported; ignored");
     auto mark = [&](const char *p) {
@@ -366,6 +392,7 @@ int MaterialSet::build(const std::string &name, const std::map<std::string, Mate
         for (const Param &p : ps.params) p.used = true;
     }
     ps.report_unused("material \"" + name + "\"");
+    if (displacement) m->set_displacement(displacement);
     materials_.push_back(std::move(m));
     int idx = int(materials_.size()) - 1;
     by_name_[name] = idx;

@@ -5,7 +5,8 @@
 // (pbrt-v4's deterministic per-point choice). Approximated with a warning naming file:line:
 // coatedconductor -> its base conductor (pbrt's "conductor.*" parameters; the coat is dropped),
 // diffusetransmission -> diffuse with pbrt's reflectance default 0.25 and "scale" (no
-// transmission); unknown types -> diffuse 0.5.
+// transmission); unknown types -> diffuse 0.5. Every material honours "displacement" (bump
+// mapping); "normalmap" is reported and ignored.
 // Parameter names and defaults are pbrt-v4's (materials.cpp); see bsdf.h for the models.
 #pragma once
 
@@ -33,6 +34,19 @@ class Material {
     /// True if the material reads a non-constant texture.
     virtual bool textured() const = 0;
     virtual std::string describe() const = 0;
+
+    /// Sets pbrt's "displacement" texture: bump mapping of the shading normal.
+    void set_displacement(const FloatTexture *displacement) { displacement_ = displacement; }
+
+  protected:
+    /// The shading frame at `si`: from the shading normal and dpdu, bump-mapped when the
+    /// material has a displacement texture (pbrt-v4 BumpMap: finite differences of the
+    /// displacement over half the uv footprint, or 0.0005 without one; the displacement times
+    /// dn/du term is omitted since Tessera keeps no normal derivatives). Thread-safe.
+    Frame frame(const SurfaceInteraction &si, const TextureEvalContext &tc) const;
+
+  private:
+    const FloatTexture *displacement_ = nullptr;
 };
 
 /// Builds every material of a scene, indexed by name. `materials` are the scene's named and

@@ -195,7 +195,7 @@ PathIntegrator::PathResult PathIntegrator::trace(const CameraRay &cray,
                     float p_b = 0.f;
                     Rgb f = (!delta && use_bsdf_emission) ? bsdf->f_pdf(si.wo, ls->wi, &p_b)
                                                           : bsdf->f(si.wo, ls->wi);
-                    f *= absdot(ls->wi, si.ns);
+                    f *= absdot(ls->wi, bsdf->frame().z);
                     if (!f.is_black()) {
                         Ray shadow = (lt == LightType::Infinite || lt == LightType::DeltaDirection)
                                          ? si.spawn_ray(ls->wi)
@@ -223,7 +223,7 @@ PathIntegrator::PathResult PathIntegrator::trace(const CameraRay &cray,
         Vec2f u = sampler.get_2d();
         std::optional<BsdfSample> bs = bsdf->sample_f(si.wo, uc, u);
         if (!bs || bs->pdf <= 0.f || bs->f.is_black()) break;
-        beta *= bs->f * (absdot(bs->wi, si.ns) / bs->pdf);
+        beta *= bs->f * (absdot(bs->wi, bsdf->frame().z) / bs->pdf);
         p_bsdf = bs->pdf_is_proportional ? bsdf->pdf(si.wo, bs->wi) : bs->pdf;
         specular_bounce = bs->is_specular();
         any_non_specular |= !specular_bounce;

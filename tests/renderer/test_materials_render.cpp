@@ -62,3 +62,27 @@ TEST_CASE("diffusetransmission keeps pbrt-v4's reflectance default 0.25") {
     // Albedo 0.25 under a white environment, one bounce: 0.25 everywhere on the sphere.
     CHECK(image_mean(render_image(*sc), 0) == doctest::Approx(0.25).epsilon(0.01));
 }
+
+TEST_CASE("bump mapping: a displacement ramp tilts the shading normal by atan(slope)") {
+    // A unit-reflectance quad lit head-on by a distant light of irradiance pi: radiance is the
+    // cosine between the (bumped) shading normal and the light. displacement = S * u over a
+    // quad 2 units wide has slope S / 2: S = 2 tilts the normal by 45 degrees.
+    auto make = [](const std::string &material) {
+        return "LookAt 0 0 -3  0 0 0  0 1 0\nCamera \"perspective\" \"float fov\" [ 20 ]\n"
+               "Film \"rgb\" \"integer xresolution\" [ 4 ] \"integer yresolution\" [ 4 ]\n"
+               "Sampler \"zsobol\" \"integer pixelsamples\" [ 4 ]\nPixelFilter \"box\"\n"
+               "Integrator \"path\" \"integer maxdepth\" [ 1 ]\nWorldBegin\n"
+               "LightSource \"distant\" \"rgb L\" [ 3.14159265 3.14159265 3.14159265 ]\n"
+               "  \"point3 from\" [ 0 0 -1 ] \"point3 to\" [ 0 0 0 ]\n"
+               "Texture \"ramp\" \"float\" \"bilerp\" \"float v00\" [ 0 ] \"float v10\" [ 2 ]\n"
+               "  \"float v01\" [ 0 ] \"float v11\" [ 2 ]\n" +
+               material +
+               "\nShape \"trianglemesh\" \"point3 P\" [ -1 -1 0  1 -1 0  1 1 0  -1 1 0 ]\n"
+               "  \"point2 uv\" [ 0 0  1 0  1 1  0 1 ] \"integer indices\" [ 0 1 2  0 2 3 ]\n";
+    };
+    auto flat = scene_from_string(make("Material \"diffuse\" \"rgb reflectance\" [ 1 1 1 ]"));
+    CHECK(image_mean(render_image(*flat), 1) == doctest::Approx(1.0).epsilon(0.002));
+    auto bumped = scene_from_string(make("Material \"diffuse\" \"rgb reflectance\" [ 1 1 1 ] "
+                                         "\"texture displacement\" \"ramp\""));
+    CHECK(image_mean(render_image(*bumped), 1) == doctest::Approx(std::sqrt(0.5)).epsilon(0.01));
+}
