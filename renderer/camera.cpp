@@ -92,10 +92,11 @@ std::string PixelFilter::describe() const {
 
 PerspectiveCamera::PerspectiveCamera(const Transform &camera_from_world, int width, int height,
                                      float fov_deg, float lens_radius, float focal_distance,
-                                     const float *screen_window)
+                                     const float *screen_window, bool orthographic)
     : world_from_camera_(camera_from_world.inverse()),
-      lens_radius_(lens_radius),
-      focal_distance_(focal_distance) {
+      lens_radius_(orthographic ? 0.f : lens_radius),
+      focal_distance_(focal_distance),
+      orthographic_(orthographic) {
     // Screen window: the shorter axis spans [-1, 1] (pbrt-v4 CameraBase).
     float aspect = float(width) / float(height);
     float sw[4];
@@ -106,7 +107,9 @@ PerspectiveCamera::PerspectiveCamera(const Transform &camera_from_world, int wid
     } else {
         sw[0] = -1.f; sw[1] = 1.f; sw[2] = -1.f / aspect; sw[3] = 1.f / aspect;
     }
-    Transform screen_from_camera = Transform::perspective(fov_deg, 1e-2, 1000.0);
+    // pbrt-v4: Perspective(fov, 1e-2, 1000), or Orthographic(0, 1) = the identity in x and y.
+    Transform screen_from_camera =
+        orthographic ? Transform() : Transform::perspective(fov_deg, 1e-2, 1000.0);
     Transform raster_from_screen = Transform::scale(width, -height, 1) *
                                    Transform::scale(1.0 / (sw[1] - sw[0]), 1.0 / (sw[3] - sw[2]), 1) *
                                    Transform::translate({-sw[0], -sw[3], 0});
@@ -173,6 +176,18 @@ CameraRay PerspectiveCamera::generate_ray(Vec2f p_raster, Vec2f u_lens, bool dif
         }
         return cr;
     }
+    if (orthographic_) {
+        // Parallel rays along camera +z from the film plane (pbrt-v4 OrthographicCamera).
+        cr.ray.o = camera_point_world(p_camera);
+        cr.ray.d = normalize(camera_vector_world({0, 0, 1}));
+        if (differentials) {
+            cr.rx_o = camera_point_world(p_camera + dx_camera_);
+            cr.ry_o = camera_point_world(p_camera + dy_camera_);
+            cr.rx_d = cr.ry_d = cr.ray.d;
+            cr.has_differentials = true;
+        }
+        return cr;
+    }
     // Pinhole: one normalisation in world space (the camera transform may scale).
     cr.ray.o = {world_from_camera_f_[0][3], world_from_camera_f_[1][3], world_from_camera_f_[2][3]};
     cr.ray.d = normalize(camera_vector_world(p_camera));
@@ -189,6 +204,18 @@ void PerspectiveCamera::approximate_dp_dxy(Vec3f p, Vec3f n, int spp, Vec3f *dpd
                                            Vec3f *dpdy) const {
     // Intersect the smallest camera differential rays, translated to pass the camera origin
     // toward p, with the tangent plane at p (pbrt-v4 CameraBase::Approximate_dp_dxy).
+    if (orthographic_) {
+        // A raster step is the same world vector everywhere (projected on the tangent plane).
+        float spp_scale = std::max(0.125f, 1.f / std::sqrt(float(std::max(spp, 1))));
+        Vec3f d = camera_vector_world({0, 0, 1});
+        auto project = [&](Vec3f v) {
+            float dn = dot(n, d);
+            return std::abs(dn) > 1e-8f ? (v - d * (dot(n, v) / dn)) * spp_scale : Vec3f();
+        };
+        *dpdx = project(camera_vector_world(dx_camera_));
+        *dpdy = project(camera_vector_world(dy_camera_));
+        return;
+    }
     Vec3f cam = position();
     Vec3f to_p = p - cam;
     float dist = length(to_p);

@@ -54,7 +54,7 @@ class PerspectiveCamera {
     /// `camera_from_world` is the CTM at the Camera directive; width/height is the film.
     PerspectiveCamera(const Transform &camera_from_world, int width, int height, float fov_deg,
                       float lens_radius, float focal_distance,
-                      const float *screen_window = nullptr);
+                      const float *screen_window = nullptr, bool orthographic = false);
     /// Ray through raster position (x, y) in pixels; `u_lens` in [0,1)^2 for depth of field
     /// (ignored when lens_radius() is 0). With `differentials` false the ray differentials are
     /// left unset (has_differentials false): scenes without textures never read them.
@@ -82,6 +82,7 @@ class PerspectiveCamera {
     Vec3f p0_camera_, dx_camera_, dy_camera_;
     float world_from_camera_f_[3][4];
     float lens_radius_, focal_distance_;
+    bool orthographic_ = false;  ///< pbrt-v4 "orthographic": parallel rays along camera +z
     Vec3f min_pos_dx_, min_pos_dy_, min_dir_dx_, min_dir_dy_;
 };
 

@@ -156,14 +156,20 @@ void apply_settings(const SceneDesc &d, const SceneOverrides &ov, Scene &sc) {
 
     // Camera.
     float fov = 90.f, lens_radius = 0.f, focal_distance = 1e6f;
+    bool orthographic = false;
     std::vector<float> sw;
     if (d.camera.present) {
         const ParamSet &cp = d.camera.params;
-        if (d.camera.type != "perspective")
+        if (d.camera.type != "perspective" && d.camera.type != "orthographic")
             throw SceneError(d.camera.loc, "Camera \"" + d.camera.type +
-                                               "\" is not supported (only \"perspective\")");
-        fov = cp.get_float("fov", 90.f);
+                                               "\" is not supported (\"perspective\" and "
+                                               "\"orthographic\" are)");
+        orthographic = d.camera.type == "orthographic";
+        if (!orthographic) fov = cp.get_float("fov", 90.f);
         lens_radius = cp.get_float("lensradius", 0.f);
+        if (orthographic && lens_radius > 0)
+            warn(d.camera.loc, "depth of field of the orthographic camera is not supported; "
+                               "\"lensradius\" ignored");
         focal_distance = cp.get_float("focaldistance", 1e6f);
         sw = cp.get_floats("screenwindow");
         if (!sw.empty() && sw.size() != 4)
@@ -183,7 +189,8 @@ void apply_settings(const SceneDesc &d, const SceneOverrides &ov, Scene &sc) {
     }
     sc.camera = std::make_unique<PerspectiveCamera>(d.camera_from_world, s.width, s.height, fov,
                                                     lens_radius, focal_distance,
-                                                    sw.empty() ? nullptr : sw.data());
+                                                    sw.empty() ? nullptr : sw.data(),
+                                                    orthographic);
 }
 
 /// A shape's triangles in the target space, or nothing for quadrics/unsupported shapes.
