@@ -5,6 +5,7 @@
 
 #include "renderer/mesh_io.h"
 #include "renderer/default_view.h"
+#include "renderer/loop_subdiv.h"
 #if __has_include("renderer/obj_loader.h")
 #include "renderer/obj_loader.h"
 #define TESSERA_HAVE_OBJ 1
@@ -201,12 +202,6 @@ std::optional<TriangleMesh> triangles_of(const ShapeDesc &sd, const Transform &x
     std::vector<Vec2f> uv;
     std::vector<int> idx;
     if (sd.type == "trianglemesh" || sd.type == "loopsubdiv") {
-        if (sd.type == "loopsubdiv") {
-            // TODO(tessera): Loop subdivision (pbrt-v4 LoopSubdivide); until then the control
-            // mesh is rendered, which is coarser and faceted.
-            warn(sd.loc, "\"loopsubdiv\" is rendered as its control mesh (no subdivision)");
-            (void)ps.get_int("levels", 3);
-        }
         p = ps.get_point3s("P");
         idx = ps.get_ints("indices");
         n = ps.get_normals("N");
@@ -220,6 +215,22 @@ std::optional<TriangleMesh> triangles_of(const ShapeDesc &sd, const Transform &x
         }
         for (const char *ig : {"S", "faceIndices"})
             if (const Param *x = ps.find(ig)) x->used = true;
+        if (sd.type == "loopsubdiv") {
+            // pbrt-v4: "levels" (default 3) rounds of Loop subdivision, vertices on the limit
+            // surface; the result is a triangle mesh with normals.
+            int levels = std::clamp(ps.get_int("levels", 3), 0, 8);
+            for (int i : idx)
+                if (i < 0 || size_t(i) >= p.size())
+                    throw SceneError(sd.loc, "loopsubdiv: vertex index out of range");
+            if (idx.size() % 3 != 0)
+                throw SceneError(sd.loc, "loopsubdiv: the number of indices is not a multiple of 3");
+            SubdividedMesh sub =
+                loop_subdivide(p, std::vector<uint32_t>(idx.begin(), idx.end()), levels);
+            p = std::move(sub.p);
+            n = std::move(sub.n);
+            uv.clear();
+            idx.assign(sub.indices.begin(), sub.indices.end());
+        }
     } else if (sd.type == "plymesh") {
         std::string file = resolve(sd.base_dir, sd.loc, ps.get_string("filename", ""));
         MeshData md;
