@@ -1,6 +1,9 @@
 #include "renderer/material.h"
 
+#include <OpenImageIO/imagebuf.h>
+
 #include <cstring>
+#include <filesystem>
 
 #include "renderer/spectra.h"
 
@@ -240,7 +243,51 @@ float scalar_eta(const ParamSet &ps, const FileLoc &loc, float def) {
 
 }  // namespace
 
+Vec3f NormalMapImage::lookup(Vec2f uv) const {
+    // pbrt-v4 NormalMap: bilinear, repeat, at (u, 1 - v) with row 0 at the top.
+    float x = uv.x * float(width) - 0.5f, y = (1.f - uv.y) * float(height) - 0.5f;
+    int x0 = int(std::floor(x)), y0 = int(std::floor(y));
+    float fx = x - float(x0), fy = y - float(y0);
+    auto texel = [&](int xi, int yi) {
+        xi = ((xi % width) + width) % width;
+        yi = ((yi % height) + height) % height;
+        const float *t = &rgb[(size_t(yi) * size_t(width) + size_t(xi)) * 3];
+        return Vec3f(t[0], t[1], t[2]);
+    };
+    Vec3f c = texel(x0, y0) * ((1 - fx) * (1 - fy)) + texel(x0 + 1, y0) * (fx * (1 - fy)) +
+              texel(x0, y0 + 1) * ((1 - fx) * fy) + texel(x0 + 1, y0 + 1) * (fx * fy);
+    Vec3f n = c * 2.f - Vec3f(1, 1, 1);
+    float l = length(n);
+    return l > 0 ? n / l : Vec3f(0, 0, 1);
+}
+
+std::shared_ptr<const NormalMapImage> NormalMapImage::load(const std::string &path,
+                                                           const FileLoc &loc) {
+    OIIO::ImageBuf buf(path);
+    if (!buf.read(0, 0, true, OIIO::TypeDesc::FLOAT))
+        throw SceneError(loc, "normalmap \"" + path + "\": " + buf.geterror());
+    const OIIO::ImageSpec &spec = buf.spec();
+    if (spec.nchannels < 3) throw SceneError(loc, "normalmap \"" + path + "\" needs RGB");
+    auto img = std::make_shared<NormalMapImage>();
+    img->width = spec.width;
+    img->height = spec.height;
+    img->rgb.resize(size_t(spec.width) * size_t(spec.height) * 3);
+    OIIO::ROI roi = buf.roi();
+    roi.chbegin = 0;
+    roi.chend = 3;
+    // Linear: the texel values are vector components, not colours.
+    if (!buf.get_pixels(roi, OIIO::TypeDesc::FLOAT, img->rgb.data()))
+        throw SceneError(loc, "normalmap \"" + path + "\": " + buf.geterror());
+    return img;
+}
+
 Frame Material::frame(const SurfaceInteraction &si, const TextureEvalContext &tc) const {
+    if (normal_map_) {
+        // pbrt-v4 NormalMap: the map's normal in the frame of dpdu and the shading normal.
+        Frame local = Frame::from_xz(si.dpdu, si.ns);
+        Vec3f ns = local.to_world(normal_map_->lookup(tc.uv));
+        return Frame::from_xz(si.dpdu, face_forward(normalize(ns), si.ns));
+    }
     if (!displacement_) return Frame::from_xz(si.dpdu, si.ns);
     // pbrt-v4 BumpMap (materials.h): shift the lookup by half the uv footprint along u and v.
     float du = 0.5f * (std::abs(tc.dudx) + std::abs(tc.dudy));
@@ -304,8 +351,20 @@ int MaterialSet::build(const std::string &name, const std::map<std::string, Mate
         if (!ps.get_texture("displacement").empty())
             displacement = tex.float_param(ps, "displacement", 0.f);
     }
-    if (ps.find("normalmap"))
-        warn(d.loc, "normal mapping (\"normalmap\") is not supported; ignored");
+    std::shared_ptr<const NormalMapImage> normal_map;
+    if (ps.find("normalmap")) {
+        std::string file = ps.get_string("normalmap", "");
+        if (!file.empty()) {
+            namespace fs = std::filesystem;
+            fs::path path(file);
+            if (path.is_relative() && !d.base_dir.empty()) {
+                std::error_code ec;
+                path = fs::path(d.base_dir) / file;
+                if (!fs::exists(path, ec)) path = fs::path(d.loc.file).parent_path() / file;
+            }
+            normal_map = NormalMapImage::load(path.string(), d.loc);
+        }
+    }
     auto mark = [&](const char *p) {
         if (const Param *x = ps.find(p)) x->used = true;
     };
@@ -393,6 +452,7 @@ int MaterialSet::build(const std::string &name, const std::map<std::string, Mate
     }
     ps.report_unused("material \"" + name + "\"");
     if (displacement) m->set_displacement(displacement);
+    if (normal_map) m->set_normal_map(normal_map);
     materials_.push_back(std::move(m));
     int idx = int(materials_.size()) - 1;
     by_name_[name] = idx;

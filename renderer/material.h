@@ -6,7 +6,7 @@
 // coatedconductor -> its base conductor (pbrt's "conductor.*" parameters; the coat is dropped),
 // diffusetransmission -> diffuse with pbrt's reflectance default 0.25 and "scale" (no
 // transmission); unknown types -> diffuse 0.5. Every material honours "displacement" (bump
-// mapping); "normalmap" is reported and ignored.
+// mapping) and "normalmap" (a tangent-space normal map image, read linearly).
 // Parameter names and defaults are pbrt-v4's (materials.cpp); see bsdf.h for the models.
 #pragma once
 
@@ -37,6 +37,8 @@ class Material {
 
     /// Sets pbrt's "displacement" texture: bump mapping of the shading normal.
     void set_displacement(const FloatTexture *displacement) { displacement_ = displacement; }
+    /// Sets pbrt's "normalmap": a tangent-space normal map (shared, immutable once loaded).
+    void set_normal_map(std::shared_ptr<const struct NormalMapImage> map) { normal_map_ = map; }
 
   protected:
     /// The shading frame at `si`: from the shading normal and dpdu, bump-mapped when the
@@ -47,6 +49,17 @@ class Material {
 
   private:
     const FloatTexture *displacement_ = nullptr;
+    std::shared_ptr<const struct NormalMapImage> normal_map_;
+};
+
+/// A normal map image: linear RGB, row 0 at the top (pbrt looks up (u, 1 - v)), wrap repeat.
+struct NormalMapImage {
+    int width = 0, height = 0;
+    std::vector<float> rgb;
+    /// Bilinear lookup of the tangent-space normal (2 rgb - 1, normalised) at uv.
+    Vec3f lookup(Vec2f uv) const;
+    /// Reads `path` with OpenImageIO without any colour decoding. Throws SceneError (loc).
+    static std::shared_ptr<const NormalMapImage> load(const std::string &path, const FileLoc &loc);
 };
 
 /// Builds every material of a scene, indexed by name. `materials` are the scene's named and

@@ -6,6 +6,10 @@
 
 #include "render_test_util.h"
 #include "renderer/scene_desc.h"
+#include "test_helpers.h"
+
+#include <OpenImageIO/imageio.h>
+#include <cstdio>
 
 using namespace tessera;
 using namespace tessera::test;
@@ -85,4 +89,34 @@ TEST_CASE("bump mapping: a displacement ramp tilts the shading normal by atan(sl
     auto bumped = scene_from_string(make("Material \"diffuse\" \"rgb reflectance\" [ 1 1 1 ] "
                                          "\"texture displacement\" \"ramp\""));
     CHECK(image_mean(render_image(*bumped), 1) == doctest::Approx(std::sqrt(0.5)).epsilon(0.01));
+}
+
+TEST_CASE("normal map: a constant tangent-space normal tilted by 45 degrees") {
+    // pbrt-v4 NormalMap: texel (r, g, b) = (n + 1) / 2 in the frame of dpdu and the normal.
+    std::string dir = test::output_dir();
+    std::string file = dir + "/normalmap45.exr";
+    {
+        float s = std::sqrt(0.5f);
+        float texel[3] = {(s + 1) / 2, 0.5f, (s + 1) / 2};
+        auto out = OIIO::ImageOutput::create(file);
+        REQUIRE(out);
+        OIIO::ImageSpec spec(1, 1, 3, OIIO::TypeDesc::FLOAT);
+        REQUIRE(out->open(file, spec));
+        REQUIRE(out->write_image(OIIO::TypeDesc::FLOAT, texel));
+        out->close();
+    }
+    std::string scene =
+        "LookAt 0 0 -3  0 0 0  0 1 0\nCamera \"perspective\" \"float fov\" [ 20 ]\n"
+        "Film \"rgb\" \"integer xresolution\" [ 4 ] \"integer yresolution\" [ 4 ]\n"
+        "Sampler \"zsobol\" \"integer pixelsamples\" [ 4 ]\nPixelFilter \"box\"\n"
+        "Integrator \"path\" \"integer maxdepth\" [ 1 ]\nWorldBegin\n"
+        "LightSource \"distant\" \"rgb L\" [ 3.14159265 3.14159265 3.14159265 ]\n"
+        "  \"point3 from\" [ 0 0 -1 ] \"point3 to\" [ 0 0 0 ]\n"
+        "Material \"diffuse\" \"rgb reflectance\" [ 1 1 1 ] \"string normalmap\" \"" +
+        file +
+        "\"\nShape \"trianglemesh\" \"point3 P\" [ -1 -1 0  1 -1 0  1 1 0  -1 1 0 ]\n"
+        "  \"point2 uv\" [ 0 0  1 0  1 1  0 1 ] \"integer indices\" [ 0 1 2  0 2 3 ]\n";
+    auto sc = scene_from_string(scene);
+    CHECK(image_mean(render_image(*sc), 1) == doctest::Approx(std::sqrt(0.5)).epsilon(0.01));
+    std::remove(file.c_str());
 }
