@@ -280,7 +280,8 @@ RenderReport run_render(const RenderOptions &opt) {
                 cs.elapsed_s = elapsed_before + seconds_since(t_render);
                 write_checkpoint(checkpoint, film, cs);
                 rep.stats.out_of_time = false;
-                if (s.samples == 0 && s.converged) break;
+                // A chunk that converged or could not take a sample has nothing left to do.
+                if (s.converged || s.samples == 0) break;
                 continue;
             }
             break;
