@@ -5,6 +5,7 @@
 
 #include <cstdio>
 #include <filesystem>
+#include <fstream>
 #include <string>
 
 namespace tessera::test {
@@ -21,6 +22,21 @@ inline std::string shared_dir() {
 inline std::string output_dir() {
     std::filesystem::create_directories(TESSERA_TEST_OUTPUT_DIR);
     return TESSERA_TEST_OUTPUT_DIR;
+}
+
+/// A scratch folder `<system temp>/tessera_<name>`, created on demand (emptied when `fresh`).
+inline std::filesystem::path temp_dir(const std::string &name, bool fresh = false) {
+    std::filesystem::path p = std::filesystem::temp_directory_path() / ("tessera_" + name);
+    if (fresh) std::filesystem::remove_all(p);
+    std::filesystem::create_directories(p);
+    return p;
+}
+
+/// Writes `text` to `path` (binary, parent folders created); returns the path as a string.
+inline std::string write_text(const std::filesystem::path &path, const std::string &text) {
+    std::filesystem::create_directories(path.parent_path());
+    std::ofstream(path, std::ios::binary) << text;
+    return path.string();
 }
 
 }  // namespace tessera::test

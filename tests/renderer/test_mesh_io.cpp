@@ -14,16 +14,10 @@ namespace fs = std::filesystem;
 
 namespace {
 
-fs::path temp_dir() {
-    fs::path d = fs::temp_directory_path() / "tessera_test_mesh_io";
-    fs::create_directories(d);
-    return d;
-}
+fs::path temp_dir() { return test::temp_dir("test_mesh_io"); }
 
 std::string write_text(const std::string &name, const std::string &text) {
-    fs::path p = temp_dir() / name;
-    std::ofstream(p, std::ios::binary) << text;
-    return p.string();
+    return test::write_text(temp_dir() / name, text);
 }
 
 template <typename T>

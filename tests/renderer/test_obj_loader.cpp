@@ -12,16 +12,10 @@ namespace fs = std::filesystem;
 
 namespace {
 
-fs::path temp_dir() {
-    fs::path d = fs::temp_directory_path() / "tessera_test_obj_loader";
-    fs::create_directories(d);
-    return d;
-}
+fs::path temp_dir() { return test::temp_dir("test_obj_loader"); }
 
 std::string write_text(const std::string &name, const std::string &text) {
-    fs::path p = temp_dir() / name;
-    std::ofstream(p) << text;
-    return p.string();
+    return test::write_text(temp_dir() / name, text);
 }
 
 const ShapeDesc *shape_with_material(const SceneDesc &s, const std::string &mat) {

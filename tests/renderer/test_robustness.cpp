@@ -34,6 +34,14 @@ void check_finite(const sampling::RgbImage &img, const sched::AdaptiveStats &st)
     CHECK_MESSAGE(bad == 0, bad << " non-finite or negative values");
 }
 
+/// Renders on 2 threads and checks that no sample was dropped and every value is finite.
+sampling::RgbImage render_checked(const Scene &scene) {
+    sched::AdaptiveStats st;
+    sampling::RgbImage img = render_image(scene, 2, &st);
+    check_finite(img, st);
+    return img;
+}
+
 double image_max(const sampling::RgbImage &img) {
     double m = 0;
     for (float v : img.data) m = std::max(m, double(v));
@@ -130,9 +138,7 @@ AttributeEnd
 )",
                                                       small());
         CHECK(sc->lights.empty());
-        sched::AdaptiveStats st;
-        sampling::RgbImage img = render_image(*sc, 2, &st);
-        check_finite(img, st);
+        sampling::RgbImage img = render_checked(*sc);
         CHECK(image_max(img) == 0.0);
     }
     SUBCASE("the only light is a point light with I = 0 (light sampler total power 0)") {
@@ -143,9 +149,7 @@ Shape "trianglemesh" "point3 P" [ -4 -4 3  4 -4 3  4 4 3  -4 4 3 ]
     "integer indices" [ 0 1 2  0 2 3 ]
 )",
                                                       small());
-        sched::AdaptiveStats st;
-        sampling::RgbImage img = render_image(*sc, 2, &st);
-        check_finite(img, st);
+        sampling::RgbImage img = render_checked(*sc);
         CHECK(image_max(img) == 0.0);
     }
     SUBCASE("a zero light next to a real one changes nothing") {
@@ -310,9 +314,7 @@ Shape "trianglemesh"
                         3 7 6  3 6 2   0 4 7  0 7 3   1 2 6  1 6 5 ]
 )",
                                                       small(16, 8));
-        sched::AdaptiveStats st;
-        sampling::RgbImage img = render_image(*sc, 2, &st);
-        check_finite(img, st);
+        sampling::RgbImage img = render_checked(*sc);
         CHECK(image_max(img) == 0.0);
     }
     SUBCASE("inside a sphere with a light inside: lit, finite") {
@@ -323,9 +325,7 @@ Material "diffuse" "rgb reflectance" [ 0.5 0.5 0.5 ]
 Shape "sphere" "float radius" [ 2 ]
 )",
                                                       small(16, 8));
-        sched::AdaptiveStats st;
-        sampling::RgbImage img = render_image(*sc, 2, &st);
-        check_finite(img, st);
+        sampling::RgbImage img = render_checked(*sc);
         CHECK(image_mean(img, 0) > 0.0);
     }
     SUBCASE("inside a sphere, light outside: black") {
@@ -336,9 +336,7 @@ Material "diffuse" "rgb reflectance" [ 0.9 0.9 0.9 ]
 Shape "sphere" "float radius" [ 2 ]
 )",
                                                       small(16, 8));
-        sched::AdaptiveStats st;
-        sampling::RgbImage img = render_image(*sc, 2, &st);
-        check_finite(img, st);
+        sampling::RgbImage img = render_checked(*sc);
         CHECK(image_max(img) == 0.0);
     }
 }
