@@ -4,6 +4,7 @@
 
 #include <cstdint>
 #include <optional>
+#include <span>
 #include <string>
 
 #include "sampling/vecmath.h"
@@ -18,13 +19,29 @@ struct CameraSample {
     uint32_t index = 0;
 };
 
-/// The papers' attribute vector of a first hit (used by the real-time modes only).
+/// Geometry attributes of one ray-surface hit, as the real-time papers collect them (Kim et al.
+/// 2013 "ray-attribute vector"; Jin et al. 2009 Table 1).
+struct SurfaceAttributes {
+    int32_t object_id = -1;  ///< stable id of the shape hit; -1: the ray escaped
+    Vec3f position;          ///< world-space hit point
+    Vec3f normal;            ///< unit shading normal, world space
+    /// Bit i set: the hit point is in shadow with respect to light i (lights 0..31; lights beyond
+    /// 31 share bit 31).
+    uint32_t shadow_bits = 0;
+    Vec2f uv;                  ///< surface texture coordinates
+    bool has_texture = false;  ///< the material reads a texture at this hit
+    bool hit() const { return object_id >= 0; }
+};
+
+/// The papers' attribute vector of a camera sample: the first hit, the first reflection or
+/// refraction hit, and the "global colour" (Kim's GCOL: the radiance that arrived through
+/// specular reflection and refraction). Filled by integrators that support the real-time modes
+/// (the Whitted integrator); `SampleSource::shade` turns an (interpolated) vector into a colour.
 struct HitAttributes {
-    int32_t object_id = -1;  ///< -1: the ray escaped
-    Vec3f position, normal;
-    uint32_t shadow_bits = 0;  ///< bit i set: light i is occluded
-    Vec2f uv;
-    bool has_texture = false;
+    SurfaceAttributes primary;    ///< first hit of the primary ray
+    SurfaceAttributes secondary;  ///< first hit of the first reflection/refraction ray
+    Rgb global_color;             ///< radiance via specular reflection/refraction (GCOL)
+    Rgb local_color;              ///< the rest: direct light and emission at the first hit
 };
 
 /// One evaluated sample: radiance and the AOVs the film keeps.
@@ -48,7 +65,18 @@ class SampleSource {
     /// Traces and shades one camera sample. The result must be a pure function of the
     /// CameraSample (and the source's seed), never of the calling thread.
     virtual Sample evaluate(const CameraSample &cs) const = 0;
-    /// Shades interpolated attributes without a primary ray (undersampling modes). Default: black.
+    /// Evaluates a batch of camera samples (e.g. a ray packet: the Whitted integrator traces
+    /// primary rays with rtcIntersect4/8). out.size() == samples.size(). Default: one by one.
+    virtual void evaluate_batch(std::span<const CameraSample> samples,
+                                std::span<Sample> out) const {
+        for (size_t i = 0; i < samples.size(); ++i) out[i] = evaluate(samples[i]);
+    }
+    /// True when evaluate() fills Sample::first_hit (the integrator supports the real-time
+    /// modes' attribute vectors and shade()).
+    virtual bool provides_attributes() const { return false; }
+    /// Shades an attribute vector without tracing a primary ray (undersampling modes): local
+    /// shading at primary.position / normal / uv with the shadow bits as given (no shadow rays),
+    /// plus global_color. Default (sources without attributes): black.
     virtual Rgb shade(const HitAttributes &) const { return Rgb(0.f); }
     /// One readable line describing the source, for logs.
     virtual std::string describe() const = 0;

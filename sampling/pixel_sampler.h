@@ -1,0 +1,152 @@
+// The PixelSampler plugin interface and registry (DESIGN.md, "The PixelSampler plugin").
+//
+// A plugin is one sampling mode, selected by name on the command line as
+// `--sampler NAME[:key=value,...]`. Two kinds:
+//  - progressive (`uniform`, `adaptive`): run by the adaptive tile scheduler
+//    (scheduler/adaptive_scheduler.h) pass after pass; the registry holds their parameters so
+//    that one parser and `tessera samplers` cover every mode;
+//  - frame (`fixed`, `jin`, `kim`, `fliptri`, `flipquad`, `suffern`): the real-time modes. A frame
+//    is a sequence of *stages*; each stage is a parallel job over 8x8 tiles in Morton order with
+//    a barrier after it (scheduler/frame_scheduler.h), then a serial `end_stage` (reductions such
+//    as a frame-average gradient). The plugin object lives across frames, so a mode may reuse the
+//    previous frame's state (e.g. its threshold).
+//
+// Plugins see the scene only through SampleSource: `evaluate`/`evaluate_batch` trace camera
+// samples (with the attribute vector when the source provides one) and `shade` turns an
+// interpolated attribute vector into a colour. Their random numbers are pure functions of
+// (pixel, sample index) (sampling/sequence.h), so frames do not depend on the thread count.
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "sampling/sample_source.h"
+
+namespace tessera::sampling {
+
+/// Half-open pixel rectangle [x0, x1) x [y0, y1) (one tile).
+struct PixelRect {
+    uint32_t x0 = 0, y0 = 0, x1 = 0, y1 = 0;
+    uint32_t width() const { return x1 - x0; }
+    uint32_t height() const { return y1 - y0; }
+};
+
+/// One parameter a plugin takes, with its default (the paper's) and valid range.
+struct PluginParamSpec {
+    std::string key;
+    double default_value = 0;
+    double min_value = 0, max_value = 1;
+    bool integer = false;  ///< only whole numbers accepted (booleans: integer in [0, 1])
+    std::string help;      ///< one line for `tessera samplers`
+};
+
+/// Validated parameter values of one plugin instance (defaults filled in).
+class PluginParams {
+  public:
+    PluginParams() = default;
+    explicit PluginParams(const std::vector<PluginParamSpec> &specs);
+    /// The value of a declared key. Throws std::logic_error for an undeclared key (a plugin bug).
+    double get(std::string_view key) const;
+    int get_int(std::string_view key) const { return int(get(key)); }
+    bool get_bool(std::string_view key) const { return get(key) != 0; }
+    /// True when the user gave the key explicitly.
+    bool is_set(std::string_view key) const;
+    /// Sets a declared key (validated by the parser before).
+    void set(std::string_view key, double value);
+    /// "key=value,key=value" of every parameter, in declaration order.
+    std::string describe() const;
+
+  private:
+    size_t index_of(std::string_view key) const;
+    std::vector<std::string> keys_;
+    std::vector<double> values_;
+    std::vector<bool> given_;
+};
+
+/// One float per pixel, row-major: a diagnostic image of a plugin (written as an EXR layer).
+struct FrameLayer {
+    std::string name;  ///< e.g. "active", "test", "interpolated"
+    std::vector<float> data;
+};
+
+/// What one frame of a frame plugin produced.
+struct FrameResult {
+    uint32_t width = 0, height = 0;
+    std::vector<Rgb> color;    ///< final pixel colours, row-major
+    std::vector<float> rays;   ///< rays traced per pixel this frame (the rays-per-pixel heat map)
+    std::vector<FrameLayer> diagnostics;  ///< the paper's diagnostic images
+    uint64_t samples = 0;      ///< camera samples evaluated (primary rays traced)
+    uint64_t rays_total = 0;   ///< all rays traced (primary, shadow, reflection, refraction)
+    uint64_t shaded = 0;       ///< attribute vectors shaded without a primary ray (`shade`)
+    uint64_t nan_samples = 0;  ///< non-finite samples dropped
+    /// Fraction of the plugin's decision units (pixels or subpixels) found active, i.e. given
+    /// extra work; `active_unit` names the unit.
+    double active_fraction = 0;
+    std::string active_unit = "pixels";
+    /// Clears and sizes every buffer for a w x h frame.
+    void reset(uint32_t w, uint32_t h);
+    /// Adds (or returns the existing) zero-filled diagnostic layer `name`.
+    FrameLayer &layer(const std::string &name);
+};
+
+/// A real-time sampling mode. One instance renders one frame at a time; `run_tile` is called
+/// concurrently for different tiles of one stage, so it may write only the data of its own
+/// tile's pixels (or use atomics); everything else happens in the serial calls.
+class PixelSampler {
+  public:
+    virtual ~PixelSampler() = default;
+    /// Serial. Prepares a frame at the source's resolution (reallocates on a size change).
+    virtual void begin_frame(const SampleSource &source) = 0;
+    /// Stages of the current frame (constant during a frame).
+    virtual int stage_count() const = 0;
+    /// Short name of a stage for timing reports ("presample", "test", "supersample", ...).
+    virtual std::string stage_name(int stage) const;
+    /// Parallel over tiles. Tiles of stage s+1 start only after every tile of stage s finished
+    /// and end_stage(s) returned.
+    virtual void run_tile(int stage, const PixelRect &tile, const SampleSource &source) = 0;
+    /// Serial, after the barrier that ends `stage`.
+    virtual void end_stage(int /*stage*/, const SampleSource & /*source*/) {}
+    /// Serial, after the last stage: writes the frame's colours, rays, diagnostics and counts.
+    virtual void end_frame(FrameResult &result) = 0;
+};
+
+/// Progressive modes run on the adaptive scheduler; frame modes on the frame scheduler.
+enum class PluginKind { Progressive, Frame };
+
+/// A registered plugin.
+struct PluginInfo {
+    std::string name;
+    PluginKind kind = PluginKind::Frame;
+    std::string summary;  ///< one line: what it does and its source paper
+    std::vector<PluginParamSpec> params;
+    /// Makes a frame plugin (empty for progressive ones).
+    std::function<std::unique_ptr<PixelSampler>(const PluginParams &)> make;
+};
+
+/// Every plugin, in the order `tessera samplers` lists them.
+const std::vector<PluginInfo> &plugin_registry();
+/// The plugin called `name`, or nullptr.
+const PluginInfo *find_plugin(std::string_view name);
+
+/// A parsed `--sampler` value.
+struct PluginSpec {
+    const PluginInfo *info = nullptr;
+    PluginParams params;
+    /// "name:key=value,..." with every parameter (defaults included).
+    std::string describe() const;
+};
+
+/// Parses "NAME[:key=value,...]". Throws std::invalid_argument with a message naming the
+/// plugin and the key for an unknown plugin, an unknown key, a repeated key, a malformed item,
+/// a non-number, a non-integer for an integer key, or a value outside the key's range.
+PluginSpec parse_plugin_spec(std::string_view text);
+
+/// The text of `tessera samplers`: every plugin, its summary, and its keys with defaults,
+/// ranges and help.
+std::string format_plugin_list();
+
+}  // namespace tessera::sampling
