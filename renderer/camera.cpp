@@ -117,10 +117,7 @@ PerspectiveCamera::PerspectiveCamera(const Transform &camera_from_world, int wid
     p0_camera_ = camera_from_raster_.point({0, 0, 0});
     dx_camera_ = camera_from_raster_.point({1, 0, 0}) - p0_camera_;
     dy_camera_ = camera_from_raster_.point({0, 1, 0}) - p0_camera_;
-    const Mat4 &wc = world_from_camera_.matrix();
-    for (int r = 0; r < 3; ++r)
-        for (int c = 0; c < 4; ++c)
-            world_from_camera_f_[r][c] = float(wc.m[r][c]);
+    set_world_from_camera(world_from_camera_);
 
     // Smallest differentials over the film, for Approximate_dp_dxy (pbrt-v4 FindMinimumDifferentials).
     min_pos_dx_ = min_pos_dy_ = {kInfinity, kInfinity, kInfinity};
@@ -136,6 +133,14 @@ PerspectiveCamera::PerspectiveCamera(const Transform &camera_from_world, int wid
         if (length_squared(dy) < length_squared(min_dir_dy_)) min_dir_dy_ = dy;
     }
     min_pos_dx_ = min_pos_dy_ = {0, 0, 0};
+}
+
+void PerspectiveCamera::set_world_from_camera(const Transform &world_from_camera) {
+    world_from_camera_ = world_from_camera;
+    const Mat4 &wc = world_from_camera_.matrix();
+    for (int r = 0; r < 3; ++r)
+        for (int c = 0; c < 4; ++c)
+            world_from_camera_f_[r][c] = float(wc.m[r][c]);
 }
 
 Vec3f PerspectiveCamera::camera_point_world(Vec3f p) const {

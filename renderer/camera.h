@@ -63,6 +63,11 @@ class PerspectiveCamera {
     /// Lens radius in scene units; 0 for a pinhole (then generate_ray ignores u_lens).
     float lens_radius() const { return lens_radius_; }
     Vec3f position() const { return world_from_camera_.point({0, 0, 0}); }
+    /// The camera's placement (world from camera space).
+    const Transform &world_from_camera() const { return world_from_camera_; }
+    /// Moves the camera: a new world-from-camera transform, the projection unchanged (the
+    /// real-time loop's --orbit). Not thread-safe against concurrent generate_ray.
+    void set_world_from_camera(const Transform &world_from_camera);
     /// Camera-space direction toward +z transformed to world.
     Vec3f forward() const { return normalize(world_from_camera_.vector({0, 0, 1})); }
     /// Approximate position differentials at point p with normal n, for texture filtering
