@@ -8,6 +8,7 @@
 #include <regex>
 
 #include "renderer/diff.h"
+#include "renderer/image_io.h"
 #include "renderer/render.h"
 
 namespace {
@@ -118,6 +119,9 @@ int main(int argc, char **argv) {
     } catch (const tessera::SceneError &e) {
         std::fprintf(stderr, "%s\n", e.what());
         return 2;
+    } catch (const tessera::OutputError &e) {
+        std::fprintf(stderr, "tessera: cannot write output: %s\n", e.what());
+        return 1;
     } catch (const std::bad_alloc &) {
         // The limits (renderer/limits.h) check the large allocations up front; this is what
         // slipped past them.

@@ -34,33 +34,30 @@ cmake -S "$root" -B "$build" -DCMAKE_CXX_COMPILER="$cxx" -DCMAKE_BUILD_TYPE=Debu
     -DTESSERA_BUILD_TESTS=OFF -DTESSERA_BUILD_BENCHMARKS=OFF >/dev/null || exit 1
 cmake --build "$build" -j "$jobs" --target "${targets[@]}" || exit 1
 
-# Seed folders per target (libFuzzer reads every file in them; only new coverage is kept).
+# The seeds of a target, copied into one folder of the build tree: libFuzzer is given only
+# build-tree folders, so that nothing it does can write into the source tree.
 seeds_for() {
-    case "$1" in
-    fuzz_pbrt)
-        mkdir -p "$build/seeds/pbrt"
-        for f in "$root"/examples/*/*.pbrt "$root"/tests/broken/*.pbrt "$root"/tests/broken/inc/*; do
-            [[ -f "$f" ]] && cp "$f" "$build/seeds/pbrt/$(basename "$(dirname "$f")")_$(basename "$f")"
-        done
-        echo "$build/seeds/pbrt $root/tests/fuzz/seeds/pbrt $root/tests/fuzz/regressions/pbrt"
-        ;;
-    fuzz_ply)
-        echo "$root/tests/fuzz/seeds/ply $root/tests/fuzz/regressions/ply"
-        mkdir -p "$build/seeds/ply" && cp "$root"/tests/broken/meshes/*.ply "$build/seeds/ply/"
-        echo "$build/seeds/ply"
-        ;;
-    fuzz_obj)
-        echo "$root/tests/fuzz/seeds/obj $root/tests/fuzz/regressions/obj"
-        mkdir -p "$build/seeds/obj" && cp "$root"/tests/broken/meshes/*.obj "$build/seeds/obj/"
-        echo "$build/seeds/obj"
-        ;;
+    local kind="${1#fuzz_}" dir="$build/seeds/${1#fuzz_}"
+    rm -rf "$dir" && mkdir -p "$dir"
+    local sources=("$root"/tests/fuzz/seeds/"$kind"/* "$root"/tests/fuzz/regressions/"$kind"/*)
+    case "$kind" in
+    pbrt) sources+=("$root"/examples/*/*.pbrt "$root"/tests/broken/*.pbrt "$root"/tests/broken/inc/*) ;;
+    ply) sources+=("$root"/tests/broken/meshes/*.ply) ;;
+    obj) sources+=("$root"/tests/broken/meshes/*.obj) ;;
     esac
+    local f
+    for f in "${sources[@]}"; do
+        [[ -f "$f" && "$(basename "$f")" != README.md ]] || continue
+        cp "$f" "$dir/$(basename "$(dirname "$f")")_$(basename "$f")"
+    done
+    echo "$dir"
 }
 
 # halt_on_error: a UBSan finding is a crash to libFuzzer. new_delete_type_mismatch=0: see
 # tests/CMakeLists.txt (OpenImageIO's TextureSystem::destroy).
 export ASAN_OPTIONS="${ASAN_OPTIONS:-detect_leaks=1:new_delete_type_mismatch=0}"
 export UBSAN_OPTIONS="${UBSAN_OPTIONS:-halt_on_error=1:print_stacktrace=1}"
+export LSAN_OPTIONS="${LSAN_OPTIONS:-suppressions=$root/tests/fuzz/lsan.supp:print_suppressions=0}"
 
 status=0
 summary=()
@@ -70,15 +67,14 @@ for t in "${targets[@]}"; do
     mkdir -p "$corpus" "$artifacts"
     dict=()
     [[ $t == fuzz_pbrt ]] && dict=(-dict="$root/tests/fuzz/pbrt.dict")
-    seed_dirs=()
-    for d in $(seeds_for "$t"); do [[ -d "$d" ]] && seed_dirs+=("$d"); done
+    seed_dir="$(seeds_for "$t")"
     echo "== fuzz: $t for ${seconds} s"
     log="$build/$t.log"
     # -timeout: one input taking 10 s is a hang; -rss_limit_mb: 2 GB is a runaway allocation;
     # -max_len: scenes and meshes of up to 16 KiB reach every parser state.
     (cd "$build" && "$build/fuzz/$t" -max_total_time="$seconds" -timeout=10 -rss_limit_mb=2048 \
         -max_len=16384 -print_final_stats=1 -artifact_prefix="$artifacts/$t-" \
-        "${dict[@]}" ${FUZZ_ARGS:-} "$corpus" "${seed_dirs[@]}") >"$log" 2>&1
+        "${dict[@]}" ${FUZZ_ARGS:-} "$corpus" "$seed_dir") >"$log" 2>&1
     rc=$?
     execs="$(grep -Eo 'stat::number_of_executed_units: *[0-9]+' "$log" | grep -Eo '[0-9]+$' | tail -1)"
     cov="$(grep -Eo 'cov: [0-9]+' "$log" | tail -1)"
