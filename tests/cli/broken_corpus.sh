@@ -18,8 +18,8 @@
 # exact "file:line" the error must start with; MESSAGE_REGEX is an extended regex matched against
 # the rest of that line. Every top-level file of the corpus must be listed (the files in its
 # subfolders are what the listed scenes include or load). A few inputs cannot live in git (a FIFO,
-# an unreadable file) and are made here. Prints one line per input and a total; exits 1 on any
-# failure.
+# an unreadable file) or are too large to keep there, and are made here, as are the
+# command-line overrides. Prints one line per input and a total; exits 1 on any failure.
 set -uo pipefail
 
 tessera="${1:?usage: broken_corpus.sh TESSERA [CORPUS_DIR]}"
@@ -123,6 +123,19 @@ check_one include_fifo.pbrt "include_fifo.pbrt:2" "not a regular file"
 mkdir -p "$run_dir/dir.pbrt"
 check_one dir.pbrt "dir.pbrt:0" "directory"
 check_one no_such_scene.pbrt "no_such_scene.pbrt:0" "cannot open"
+# Two large inputs, generated rather than stored: 70000 nested AttributeBegin (the limit is
+# 65536), and Loop subdivision of 32769 triangles at 8 levels (x65536: over 2^31 triangles).
+{ printf 'WorldBegin\n'; for ((i = 0; i < 70000; ++i)); do echo AttributeBegin; done; } \
+    >"$run_dir/nesting_too_deep.pbrt"
+check_one nesting_too_deep.pbrt "nesting_too_deep.pbrt:65538" "AttributeBegin nested more than 65536 deep"
+{
+    printf 'WorldBegin\nShape "loopsubdiv" "integer levels" [ 8 ] "point3 P" [ 0 0 0  1 0 0  0 1 0 ]\n'
+    printf '  "integer indices" ['
+    for ((i = 0; i < 32769; ++i)); do printf ' 0 1 2'; done
+    printf ' ]\n'
+} >"$run_dir/loopsubdiv_explosion.pbrt"
+check_one loopsubdiv_explosion.pbrt "loopsubdiv_explosion.pbrt:2" \
+    "loopsubdiv with 8 levels: [0-9]+ triangles, more than the maximum"
 check_one good.pbrt "--resolution:0" "larger than the maximum" --resolution 70000x16
 check_one good.pbrt "--resolution:0" "needs about .* of memory" --resolution 32768x32768
 check_one good.pbrt "--spp:0" "larger than the maximum" --spp 2000000000
