@@ -149,7 +149,7 @@ void check_ply_file(const std::string &path) {
             if (words.size() != n)
                 fail(path, "malformed PLY header line \"" + line.substr(0, 80) + "\"");
         };
-        if (kw.empty() || kw == "comment" || kw == "obj_info") continue;
+        if (kw == "comment" || kw == "obj_info") continue;
         if (kw == "format") {
             expect_words(2);
             format = words[0];
