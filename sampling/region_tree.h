@@ -53,6 +53,16 @@ struct ErrorImage {
     float at(int x, int y) const { return error[size_t(y) * size_t(width) + size_t(x)]; }
 };
 
+/// Error summed over square cells of `cell` x `cell` pixels (the scheduler's 8x8 tiles) that
+/// tile a tree's grown rectangle from its top-left corner; the last column and row of cells may
+/// be narrower (cut at the rectangle's edge). The coarse input of RegionTree::rebuild_cells.
+struct CellErrorImage {
+    int cell = 8;               ///< cell edge in pixels (>= 1)
+    int cols = 0, rows = 0;     ///< ceil(grown width / cell) x ceil(grown height / cell)
+    std::vector<double> sum;    ///< finite, non-negative pixel errors summed per cell, row-major
+    std::vector<uint32_t> unknown;  ///< pixels per cell without an error estimate
+};
+
 /// Parameters of the stopping rule.
 struct RegionTreeParams {
     double target = 0.01;       ///< region error (dimensionless, see file comment) below
@@ -70,7 +80,8 @@ struct RegionTreeParams {
 ///
 /// Before the first rebuild() every pixel of the quadrant is active (nothing is known yet).
 /// Memory: a summed-area table of the grown rectangle is kept between rebuilds (8 bytes per
-/// pixel, plus 4 bytes per pixel while some pixel has no error estimate).
+/// pixel, plus 4 bytes per pixel while some pixel has no error estimate; per cell instead of
+/// per pixel after rebuild_cells).
 class RegionTree {
   public:
     struct Node {
@@ -94,6 +105,14 @@ class RegionTree {
     /// Returns the number of nodes. Throws std::invalid_argument if `errors` does not cover
     /// grown() (the tree is then unchanged). Needs the writer lock.
     size_t rebuild(const ErrorImage &errors, const RegionTreeParams &params);
+
+    /// Rebuilds from per-cell error sums over grown() (the scheduler's per-tile sums): the same
+    /// tree as rebuild() would build from a pixel error image that is constant inside every
+    /// cell, at O(cells) instead of O(pixels) for the table. Inside a cell the error is taken
+    /// as uniform, so integrals over float rectangles and split positions interpolate linearly
+    /// inside cells; a region touching a cell with an unknown pixel stays open. Throws
+    /// std::invalid_argument when the cell grid does not cover grown() (the tree is unchanged).
+    size_t rebuild_cells(const CellErrorImage &cells, const RegionTreeParams &params);
 
     /// True when every leaf is complete (nothing left to sample in this quadrant). False before
     /// the first rebuild unless the quadrant is empty.
@@ -130,6 +149,11 @@ class RegionTree {
     std::string describe() const;
 
   private:
+    size_t build_root();
+    /// Pixel coordinate -> table coordinate along an axis (cells of cell_ pixels, the last one
+    /// possibly narrower): linear inside each cell.
+    double table_x(double x) const;
+    double table_y(double y) const;
     double integral(const FloatRect &r) const;
     bool has_unknown(const FloatRect &r) const;
     double split_position(const FloatRect &r, int axis, double total) const;
@@ -147,6 +171,8 @@ class RegionTree {
     // (width + 1) x (height + 1), of the finite error and of the count of unknown pixels.
     std::vector<double> sat_;
     std::vector<uint32_t> unknown_sat_;
+    int cell_ = 1;                 ///< table cell edge in pixels (1: per-pixel table)
+    int cols_ = 0, rows_ = 0;      ///< table cells: (cols_ + 1) x (rows_ + 1) entries
     bool any_unknown_ = false;
 };
 

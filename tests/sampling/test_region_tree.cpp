@@ -404,6 +404,109 @@ TEST_CASE("split clamping and depth limits") {
     CHECK(t.rebuild(img, p) == 1);
 }
 
+namespace {
+
+/// Per-cell sums of an error image over `grown` (cells of c x c pixels from its corner).
+CellErrorImage cells_of(const ErrorImage &img, const PixelRect &grown, int c) {
+    CellErrorImage cells;
+    cells.cell = c;
+    cells.cols = (grown.width() + c - 1) / c;
+    cells.rows = (grown.height() + c - 1) / c;
+    cells.sum.assign(size_t(cells.cols) * size_t(cells.rows), 0.0);
+    cells.unknown.assign(cells.sum.size(), 0u);
+    for (int y = grown.y0; y < grown.y1; ++y)
+        for (int x = grown.x0; x < grown.x1; ++x) {
+            size_t k = size_t((y - grown.y0) / c) * size_t(cells.cols) + size_t((x - grown.x0) / c);
+            float e = img.error[size_t(y) * size_t(img.width) + size_t(x)];
+            if (e < kInfF)
+                cells.sum[k] += std::max(0.0, double(e));
+            else
+                ++cells.unknown[k];
+        }
+    return cells;
+}
+
+void check_same_tree(const RegionTree &a, const RegionTree &b) {
+    REQUIRE(a.nodes().size() == b.nodes().size());
+    for (size_t i = 0; i < a.nodes().size(); ++i) {
+        const auto &na = a.nodes()[i], &nb = b.nodes()[i];
+        CHECK(na.bounds.x0 == doctest::Approx(nb.bounds.x0).epsilon(1e-9));
+        CHECK(na.bounds.x1 == doctest::Approx(nb.bounds.x1).epsilon(1e-9));
+        CHECK(na.bounds.y0 == doctest::Approx(nb.bounds.y0).epsilon(1e-9));
+        CHECK(na.bounds.y1 == doctest::Approx(nb.bounds.y1).epsilon(1e-9));
+        if (std::isfinite(na.error))
+            CHECK(na.error == doctest::Approx(nb.error).epsilon(1e-9));
+        else
+            CHECK_FALSE(std::isfinite(nb.error));
+        CHECK(na.complete == nb.complete);
+        CHECK(na.child[0] == nb.child[0]);
+    }
+}
+
+}  // namespace
+
+TEST_CASE("rebuild_cells with one-pixel cells builds the per-pixel tree") {
+    ErrorImage img = random_image(53, 41, 5);
+    const PixelRect quad{8, 8, 45, 33}, grown{0, 0, 53, 41};
+    RegionTree a(quad, grown, 53.0 * 41), b(quad, grown, 53.0 * 41);
+    RegionTreeParams p;
+    p.target = 0.004;
+    a.rebuild(img, p);
+    b.rebuild_cells(cells_of(img, grown, 1), p);
+    CHECK(a.nodes().size() > 5);
+    check_same_tree(a, b);
+}
+
+TEST_CASE("rebuild_cells equals rebuild on an error image constant inside its 8x8 cells") {
+    // A grown rectangle offset from the origin whose last column and row of cells are cut
+    // (37 = 4 * 8 + 5, 29 = 3 * 8 + 5): the narrow cells map linearly too.
+    const PixelRect quad{16, 8, 45, 29}, grown{8, 0, 45, 29};
+    for (uint32_t seed : {1u, 2u, 3u}) {
+        ErrorImage fine = random_image(53, 41, seed);
+        ErrorImage blocky = make_image(53, 41, 0.f);
+        for (int y = 0; y < 41; ++y)
+            for (int x = 0; x < 53; ++x) {
+                int bx = grown.x0 + ((x - grown.x0) / 8) * 8, by = grown.y0 + (y / 8) * 8;
+                at(blocky, x, y) = fine.at(std::max(bx, 0), by);
+            }
+        if (seed == 3)  // one cell without estimates: its regions stay open, as per pixel
+            for (int y = 8; y < 16; ++y)
+                for (int x = 24; x < 32; ++x) at(blocky, x, y) = kInfF;
+        RegionTree a(quad, grown, 53.0 * 41), b(quad, grown, 53.0 * 41);
+        RegionTreeParams p;
+        p.target = seed == 1 ? 0.002 : 0.02;
+        p.min_extent = 2;
+        a.rebuild(blocky, p);
+        b.rebuild_cells(cells_of(blocky, grown, 8), p);
+        CAPTURE(seed);
+        // With the unknown cell inside, the root itself has no estimate: one open leaf.
+        if (seed == 3)
+            CHECK(a.nodes().size() == 1);
+        else
+            CHECK(a.nodes().size() > 3);
+        check_same_tree(a, b);
+        check_partition(b);
+        for (int y = quad.y0; y < quad.y1; ++y)
+            for (int x = quad.x0; x < quad.x1; ++x) CHECK(a.pixel_active(x, y) == b.pixel_active(x, y));
+    }
+}
+
+TEST_CASE("rebuild_cells rejects a cell grid that does not cover the grown rectangle") {
+    RegionTree t(PixelRect{0, 0, 16, 16}, PixelRect{0, 0, 24, 24}, 1024);
+    CellErrorImage cells;
+    cells.cell = 8;
+    cells.cols = 2;  // needs 3
+    cells.rows = 3;
+    cells.sum.assign(6, 0.0);
+    cells.unknown.assign(6, 0u);
+    CHECK_THROWS_AS(t.rebuild_cells(cells, RegionTreeParams{}), std::invalid_argument);
+    cells.cols = 3;
+    cells.sum.assign(9, 0.0);
+    cells.unknown.assign(9, 0u);
+    CHECK(t.rebuild_cells(cells, RegionTreeParams{}) == 1);
+    CHECK(t.complete());
+}
+
 TEST_CASE("rebuild time of a 960x540 quadrant of a 1920x1080 image") {
     const int w = 1920, h = 1080;
     ErrorImage img = random_image(w, h, 11);
@@ -426,4 +529,20 @@ TEST_CASE("rebuild time of a 960x540 quadrant of a 1920x1080 image") {
     MESSAGE("rebuild of a 968x548 grown quadrant: min "
             << ms.front() << " ms, median " << ms[ms.size() / 2] << " ms; " << t.describe());
     CHECK(nodes > 1);
+    // The scheduler's path: one error sum per 8x8 tile.
+    CellErrorImage cells = cells_of(img, grown, 8);
+    RegionTree tc(quad, grown, double(w) * h);
+    tc.rebuild_cells(cells, p);
+    std::vector<double> ms_cells;
+    for (int i = 0; i < 40; ++i) {
+        auto t0 = std::chrono::steady_clock::now();
+        tc.rebuild_cells(cells, p);
+        auto t1 = std::chrono::steady_clock::now();
+        ms_cells.push_back(std::chrono::duration<double, std::milli>(t1 - t0).count());
+    }
+    std::sort(ms_cells.begin(), ms_cells.end());
+    MESSAGE("rebuild_cells of the same quadrant (121x69 tiles): min "
+            << ms_cells.front() << " ms, median " << ms_cells[ms_cells.size() / 2] << " ms; "
+            << tc.describe());
+    CHECK(tc.nodes().size() > 1);
 }
