@@ -21,22 +21,22 @@ double area(const FloatRect &r) {
     return (r.x1 - r.x0) * (r.y1 - r.y0);
 }
 
-PixelRect intersect(const PixelRect &a, const PixelRect &b) {
+PixelBounds intersect(const PixelBounds &a, const PixelBounds &b) {
     return {std::max(a.x0, b.x0), std::max(a.y0, b.y0), std::min(a.x1, b.x1), std::min(a.y1, b.y1)};
 }
 
-bool contains(const PixelRect &outer, const PixelRect &inner) {
+bool contains(const PixelBounds &outer, const PixelBounds &inner) {
     return inner.x0 >= outer.x0 && inner.y0 >= outer.y0 && inner.x1 <= outer.x1 &&
            inner.y1 <= outer.y1;
 }
 
 }  // namespace
 
-PixelRect FloatRect::outward() const {
+PixelBounds FloatRect::outward() const {
     return {int(std::floor(x0)), int(std::floor(y0)), int(std::ceil(x1)), int(std::ceil(y1))};
 }
 
-RegionTree::RegionTree(PixelRect quadrant, PixelRect grown, double image_area)
+RegionTree::RegionTree(PixelBounds quadrant, PixelBounds grown, double image_area)
     : quadrant_(quadrant), grown_(grown), image_area_(image_area) {
     if (!(image_area > 0))
         throw std::invalid_argument("RegionTree: image_area must be > 0");
@@ -106,7 +106,7 @@ bool RegionTree::has_unknown(const FloatRect &r) const {
         return false;
     // The pixels with positive coverage are exactly those of the outward-rounded rectangle; the
     // cells with positive coverage are those that contain one of them.
-    PixelRect p = intersect(r.outward(), grown_);
+    PixelBounds p = intersect(r.outward(), grown_);
     if (p.empty())
         return false;
     const int i0 = (p.x0 - grown_.x0) / cell_, j0 = (p.y0 - grown_.y0) / cell_;
@@ -372,11 +372,11 @@ bool RegionTree::complete() const {
     return nodes_.empty() || nodes_[0].complete;
 }
 
-void RegionTree::collect(int n, const PixelRect &tile, std::vector<PixelRect> &out) const {
+void RegionTree::collect(int n, const PixelBounds &tile, std::vector<PixelBounds> &out) const {
     const Node &node = nodes_[size_t(n)];
     if (node.complete)
         return;
-    PixelRect r = intersect(node.bounds.outward(), tile);
+    PixelBounds r = intersect(node.bounds.outward(), tile);
     if (r.empty())
         return;
     if (node.is_leaf()) {
@@ -387,9 +387,9 @@ void RegionTree::collect(int n, const PixelRect &tile, std::vector<PixelRect> &o
     collect(node.child[1], tile, out);
 }
 
-void RegionTree::active_rects(const PixelRect &tile, std::vector<PixelRect> &out) const {
+void RegionTree::active_rects(const PixelBounds &tile, std::vector<PixelBounds> &out) const {
     out.clear();
-    PixelRect t = intersect(tile, quadrant_);
+    PixelBounds t = intersect(tile, quadrant_);
     if (t.empty())
         return;
     if (!built_) {
@@ -403,7 +403,7 @@ void RegionTree::active_rects(const PixelRect &tile, std::vector<PixelRect> &out
 
 namespace {
 /// Bits of `r` in the 8x8 mask of a tile with origin (ox, oy); r lies in the tile's first 8x8.
-uint64_t rect_bits(const PixelRect &r, int ox, int oy) {
+uint64_t rect_bits(const PixelBounds &r, int ox, int oy) {
     const int x0 = r.x0 - ox, width = r.x1 - r.x0;
     const uint64_t row = (width >= 8 ? uint64_t(0xff) : (uint64_t(1) << width) - 1) << x0;
     uint64_t bits = 0;
@@ -413,11 +413,11 @@ uint64_t rect_bits(const PixelRect &r, int ox, int oy) {
 }
 }  // namespace
 
-void RegionTree::collect_mask(int n, const PixelRect &clip, int ox, int oy, uint64_t &mask) const {
+void RegionTree::collect_mask(int n, const PixelBounds &clip, int ox, int oy, uint64_t &mask) const {
     const Node &node = nodes_[size_t(n)];
     if (node.complete)
         return;
-    PixelRect r = intersect(node.bounds.outward(), clip);
+    PixelBounds r = intersect(node.bounds.outward(), clip);
     if (r.empty())
         return;
     if (node.is_leaf()) {
@@ -428,11 +428,11 @@ void RegionTree::collect_mask(int n, const PixelRect &clip, int ox, int oy, uint
     collect_mask(node.child[1], clip, ox, oy, mask);
 }
 
-uint64_t RegionTree::active_mask(const PixelRect &tile) const {
+uint64_t RegionTree::active_mask(const PixelBounds &tile) const {
     // Clip to the tile's first 8x8 and to the quadrant; bits stay relative to the tile origin.
-    const PixelRect t8{tile.x0, tile.y0, std::min(tile.x1, tile.x0 + 8),
+    const PixelBounds t8{tile.x0, tile.y0, std::min(tile.x1, tile.x0 + 8),
                        std::min(tile.y1, tile.y0 + 8)};
-    const PixelRect clip = intersect(t8, quadrant_);
+    const PixelBounds clip = intersect(t8, quadrant_);
     if (clip.empty())
         return 0;
     if (!built_)
@@ -447,7 +447,7 @@ bool RegionTree::active_at(int n, int x, int y) const {
     const Node &node = nodes_[size_t(n)];
     if (node.complete)
         return false;
-    PixelRect r = node.bounds.outward();
+    PixelBounds r = node.bounds.outward();
     if (x < r.x0 || x >= r.x1 || y < r.y0 || y >= r.y1)
         return false;
     if (node.is_leaf())

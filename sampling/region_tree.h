@@ -30,20 +30,20 @@
 namespace tessera::sampling {
 
 /// Half-open integer pixel rectangle [x0, x1) x [y0, y1).
-struct PixelRect {
+struct PixelBounds {
     int x0 = 0, y0 = 0, x1 = 0, y1 = 0;
     int width() const { return x1 - x0; }
     int height() const { return y1 - y0; }
     long long area() const { return (long long)width() * height(); }
     bool empty() const { return x1 <= x0 || y1 <= y0; }
-    bool operator==(const PixelRect &o) const = default;
+    bool operator==(const PixelBounds &o) const = default;
 };
 
 /// Floating-point rectangle in pixel units (a pixel (x, y) covers [x, x+1) x [y, y+1)).
 struct FloatRect {
     double x0 = 0, y0 = 0, x1 = 0, y1 = 0;
     /// The smallest pixel rectangle containing this one (bounds rounded outward).
-    PixelRect outward() const;
+    PixelBounds outward() const;
 };
 
 /// Per-pixel error image of a whole film: `error[y * width + x]`, +inf where unknown.
@@ -98,7 +98,7 @@ class RegionTree {
     /// clamped to the image (the root's bounds for error computation); `image_area` in pixels
     /// (of the whole image, for the r factor). Throws std::invalid_argument unless `grown`
     /// contains `quadrant` and image_area > 0.
-    RegionTree(PixelRect quadrant, PixelRect grown, double image_area);
+    RegionTree(PixelBounds quadrant, PixelBounds grown, double image_area);
 
     /// Rebuilds from scratch from the error image (which covers the whole film; only the
     /// pixels of grown() are read; +inf or NaN = no estimate, negative values count as 0).
@@ -123,7 +123,7 @@ class RegionTree {
     /// pixel where a split falls inside a pixel; callers must not sample a pixel twice — use
     /// `pixel_active`, or sample the union). Empty when the tile is inside completed regions.
     /// Allocation-free once `out` has capacity.
-    void active_rects(const PixelRect &tile, std::vector<PixelRect> &out) const;
+    void active_rects(const PixelBounds &tile, std::vector<PixelBounds> &out) const;
 
     /// True if pixel (x, y) lies in the quadrant and in the outward-rounded bounds of an
     /// incomplete leaf (a pixel only partly covered by an incomplete leaf is active).
@@ -133,11 +133,11 @@ class RegionTree {
     /// (y - tile.y0) * 8 + (x - tile.x0) is set iff pixel_active(x, y). 0 when the tile lies in
     /// completed regions (skip it). The union of active_rects without duplicates, in one
     /// traversal; allocation-free. Tiles larger than 8x8 are truncated to their first 8x8.
-    uint64_t active_mask(const PixelRect &tile) const;
+    uint64_t active_mask(const PixelBounds &tile) const;
 
     const std::vector<Node> &nodes() const { return nodes_; }
-    const PixelRect &quadrant() const { return quadrant_; }
-    const PixelRect &grown() const { return grown_; }
+    const PixelBounds &quadrant() const { return quadrant_; }
+    const PixelBounds &grown() const { return grown_; }
     /// Error of the root region (the quadrant's error estimate).
     double root_error() const { return nodes_.empty() ? 0.0 : nodes_[0].error; }
     /// Number of leaves, and of those the incomplete ones (0, 0 before the first rebuild).
@@ -158,11 +158,11 @@ class RegionTree {
     bool has_unknown(const FloatRect &r) const;
     double split_position(const FloatRect &r, int axis, double total) const;
     void build(int node, int depth);
-    void collect(int node, const PixelRect &tile, std::vector<PixelRect> &out) const;
-    void collect_mask(int node, const PixelRect &clip, int ox, int oy, uint64_t &mask) const;
+    void collect(int node, const PixelBounds &tile, std::vector<PixelBounds> &out) const;
+    void collect_mask(int node, const PixelBounds &clip, int ox, int oy, uint64_t &mask) const;
     bool active_at(int node, int x, int y) const;
 
-    PixelRect quadrant_, grown_;
+    PixelBounds quadrant_, grown_;
     double image_area_ = 1;
     std::vector<Node> nodes_;
     bool built_ = false;

@@ -157,7 +157,7 @@ class AdaptiveProgress {
 
 struct AdaptiveScheduler::Quadrant {
     explicit Quadrant(uint32_t stripes) : locks(stripes) {}
-    sampling::PixelRect rect, grown;
+    sampling::PixelBounds rect, grown;
     std::vector<uint32_t> tiles;  // Morton indices of its tiles
     // Double-buffered tree: readers use trees[active] under their stripe's shared lock; the
     // rebuild writes trees[1 - active], which no reader can be using (see rebuild_quadrant).
@@ -218,7 +218,7 @@ struct AdaptiveScheduler::WorkerState {
     uint64_t samples = 0, rays = 0, tiles_rendered = 0, tiles_skipped = 0, pixels_skipped = 0;
     double reader_wait_s = 0, writer_wait_s = 0, tile_wait_s = 0, render_s = 0, rebuild_s = 0;
     uint64_t coalesced_rebuilds = 0;
-    std::vector<sampling::PixelRect> rects;
+    std::vector<sampling::PixelBounds> rects;
     std::array<uint8_t, kTilePixels> active{};
     std::array<uint32_t, kTilePixels> before{}, after{};
 
@@ -371,7 +371,7 @@ AdaptiveScheduler::AdaptiveScheduler(const SampleSource &source, sampling::Film 
     const double image_area = std::max(1.0, double(w) * double(h));
     for (int q = 0; q < 4; ++q) {
         auto quad = std::make_unique<Quadrant>(options_.lock_stripes);
-        sampling::PixelRect r;
+        sampling::PixelBounds r;
         r.x0 = (q & 1) ? sx : 0;
         r.x1 = (q & 1) ? iw : sx;
         r.y0 = (q & 2) ? sy : 0;
@@ -408,7 +408,7 @@ const sampling::RegionTree &AdaptiveScheduler::tree(int quadrant) const {
     return quadrants_.at(size_t(quadrant))->live();
 }
 
-sampling::PixelRect AdaptiveScheduler::quadrant_rect(int quadrant) const {
+sampling::PixelBounds AdaptiveScheduler::quadrant_rect(int quadrant) const {
     return quadrants_.at(size_t(quadrant))->rect;
 }
 
@@ -488,10 +488,10 @@ void AdaptiveScheduler::process_tile(size_t t, uint32_t pass, RenderContext &ctx
         const uint32_t s = quad.locks.index(tile.tx, tile.ty);
         ws.reader_wait_s += quad.locks.lock_shared(s);
         quad.live().active_rects(
-            sampling::PixelRect{int(tile.x0), int(tile.y0), int(tile.x1), int(tile.y1)}, ws.rects);
+            sampling::PixelBounds{int(tile.x0), int(tile.y0), int(tile.x1), int(tile.y1)}, ws.rects);
         quad.locks.unlock_shared(s);
         std::fill_n(ws.active.begin(), n, uint8_t(0));
-        for (const sampling::PixelRect &r : ws.rects) {
+        for (const sampling::PixelBounds &r : ws.rects) {
             int x0 = std::max(r.x0, int(tile.x0)), x1 = std::min(r.x1, int(tile.x1));
             int y0 = std::max(r.y0, int(tile.y0)), y1 = std::min(r.y1, int(tile.y1));
             for (int y = y0; y < y1; ++y)
@@ -566,7 +566,7 @@ void AdaptiveScheduler::rebuild_quadrant(int q, RenderContext &ctx, WorkerState 
     // corner; its right and bottom edge are tile boundaries or the image edge); sum the
     // quadrant's own tiles for the progress estimate.
     const uint32_t w = film_.width(), h = film_.height();
-    const sampling::PixelRect &g = quad.grown, &r = quad.rect;
+    const sampling::PixelBounds &g = quad.grown, &r = quad.rect;
     const int ts = int(kTileSize);
     sampling::CellErrorImage &cells = quad.cells;
     cells.cell = ts;
@@ -786,7 +786,7 @@ AdaptiveStats AdaptiveScheduler::render(const std::atomic<bool> *cancel) {
             for (int q = 0; q < 4; ++q) {
                 Quadrant &quad = *quadrants_[size_t(q)];
                 if (quad.rect.empty()) continue;
-                const sampling::PixelRect &g = quad.grown;
+                const sampling::PixelBounds &g = quad.grown;
                 const int ts = int(kTileSize);
                 sampling::CellErrorImage &cells = quad.cells;
                 cells.cell = ts;

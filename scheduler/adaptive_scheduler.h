@@ -206,7 +206,7 @@ class AdaptiveScheduler {
     /// The region tree of quadrant q (0..3). Not thread-safe against a running render().
     const sampling::RegionTree &tree(int quadrant) const;
     /// Pixel rectangle of quadrant q (may be empty).
-    sampling::PixelRect quadrant_rect(int quadrant) const;
+    sampling::PixelBounds quadrant_rect(int quadrant) const;
     /// The quadrant of the tile with Morton index t.
     uint32_t tile_quadrant(size_t t) const { return tile_quadrant_[t]; }
     /// The Morton-ordered tile list.

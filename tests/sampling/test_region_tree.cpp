@@ -85,7 +85,7 @@ void check_partition(const RegionTree &t) {
     const auto &nodes = t.nodes();
     REQUIRE(!nodes.empty());
     const FloatRect root = nodes[0].bounds;
-    const PixelRect g = t.grown();
+    const PixelBounds g = t.grown();
     CHECK(root.x0 == g.x0);
     CHECK(root.y0 == g.y0);
     CHECK(root.x1 == g.x1);
@@ -116,8 +116,8 @@ void check_partition(const RegionTree &t) {
 }  // namespace
 
 TEST_CASE("FloatRect::outward rounds outward") {
-    CHECK(FloatRect{1.5, 2.0, 3.0, 4.25}.outward() == PixelRect{1, 2, 3, 5});
-    CHECK(FloatRect{-0.5, 0.0, 0.5, 1e-9}.outward() == PixelRect{-1, 0, 1, 1});
+    CHECK(FloatRect{1.5, 2.0, 3.0, 4.25}.outward() == PixelBounds{1, 2, 3, 5});
+    CHECK(FloatRect{-0.5, 0.0, 0.5, 1e-9}.outward() == PixelBounds{-1, 0, 1, 1});
 }
 
 TEST_CASE("construction, state before the first rebuild, describe") {
@@ -128,10 +128,10 @@ TEST_CASE("construction, state before the first rebuild, describe") {
     CHECK(!t.complete());
     CHECK(t.pixel_active(8, 0));
     CHECK(!t.pixel_active(7, 0));  // outside the quadrant
-    std::vector<PixelRect> rects;
+    std::vector<PixelBounds> rects;
     t.active_rects({4, 4, 12, 12}, rects);
     REQUIRE(rects.size() == 1);
-    CHECK(rects[0] == PixelRect{8, 4, 12, 8});
+    CHECK(rects[0] == PixelBounds{8, 4, 12, 8});
     // Columns 4..7 of rows 0..3 of the tile: 0xf0 in each of the first four bytes.
     CHECK(t.active_mask({4, 4, 12, 12}) == 0xf0f0f0f0ull);
     CHECK(t.active_mask({0, 0, 8, 8}) == 0);
@@ -157,7 +157,7 @@ TEST_CASE("uniform low error: one complete root") {
     // e_b = e * sqrt(A_b / A_image).
     CHECK(t.root_error() == doctest::Approx(0.001 * std::sqrt(40.0 * 32 / (64 * 48))));
     CHECK(!t.pixel_active(0, 0));
-    std::vector<PixelRect> rects{{1, 1, 2, 2}};
+    std::vector<PixelBounds> rects{{1, 1, 2, 2}};
     t.active_rects({0, 0, 8, 8}, rects);
     CHECK(rects.empty());
 }
@@ -169,8 +169,8 @@ TEST_CASE("random error images: leaves partition the root; errors match the refe
         ErrorImage img = random_image(w, h, seed);
         // Alternate between a whole-image tree and a quadrant with a clamped grown rectangle.
         const bool whole = seed % 2 == 0;
-        PixelRect quad = whole ? PixelRect{0, 0, w, h} : PixelRect{48, 0, 96, 32};
-        PixelRect grown = whole ? quad : PixelRect{40, 0, 96, 40};
+        PixelBounds quad = whole ? PixelBounds{0, 0, w, h} : PixelBounds{48, 0, 96, 32};
+        PixelBounds grown = whole ? quad : PixelBounds{40, 0, 96, 40};
         RegionTree t(quad, grown, double(w) * h);
         RegionTreeParams p;
         p.target = 0.004;
@@ -295,7 +295,7 @@ TEST_CASE("an unknown pixel keeps its region open and unsplit") {
 TEST_CASE("active_rects and pixel_active agree with the leaves") {
     const int w = 96, h = 72;
     ErrorImage img = random_image(w, h, 3);
-    const PixelRect quad{48, 32, 96, 72}, grown{40, 24, 96, 72};
+    const PixelBounds quad{48, 32, 96, 72}, grown{40, 24, 96, 72};
     RegionTree t(quad, grown, double(w) * h);
     RegionTreeParams p;
     p.target = 0.004;
@@ -312,7 +312,7 @@ TEST_CASE("active_rects and pixel_active agree with the leaves") {
             bool expect = false;
             if (x >= quad.x0 && x < quad.x1 && y >= quad.y0 && y < quad.y1)
                 for (const auto &l : ls) {
-                    PixelRect r = l.bounds.outward();
+                    PixelBounds r = l.bounds.outward();
                     if (!l.complete && x >= r.x0 && x < r.x1 && y >= r.y0 && y < r.y1)
                         expect = true;
                 }
@@ -324,14 +324,14 @@ TEST_CASE("active_rects and pixel_active agree with the leaves") {
 
     // Over 8x8 tiles (offset so some straddle the quadrant's edge): the union of active_rects is
     // exactly the set of active pixels of the tile, and every rect lies in tile ∩ quadrant.
-    std::vector<PixelRect> rects;
+    std::vector<PixelBounds> rects;
     int skipped = 0;
     for (int ty = 28; ty < h; ty += 8)
         for (int tx = 44; tx < w; tx += 8) {
-            const PixelRect tile{tx, ty, tx + 8, ty + 8};
+            const PixelBounds tile{tx, ty, tx + 8, ty + 8};
             t.active_rects(tile, rects);
             std::set<std::pair<int, int>> from_rects;
-            for (const PixelRect &r : rects) {
+            for (const PixelBounds &r : rects) {
                 CHECK(!r.empty());
                 CHECK(r.x0 >= std::max(tile.x0, quad.x0));
                 CHECK(r.y0 >= std::max(tile.y0, quad.y0));
@@ -407,7 +407,7 @@ TEST_CASE("split clamping and depth limits") {
 namespace {
 
 /// Per-cell sums of an error image over `grown` (cells of c x c pixels from its corner).
-CellErrorImage cells_of(const ErrorImage &img, const PixelRect &grown, int c) {
+CellErrorImage cells_of(const ErrorImage &img, const PixelBounds &grown, int c) {
     CellErrorImage cells;
     cells.cell = c;
     cells.cols = (grown.width() + c - 1) / c;
@@ -447,7 +447,7 @@ void check_same_tree(const RegionTree &a, const RegionTree &b) {
 
 TEST_CASE("rebuild_cells with one-pixel cells builds the per-pixel tree") {
     ErrorImage img = random_image(53, 41, 5);
-    const PixelRect quad{8, 8, 45, 33}, grown{0, 0, 53, 41};
+    const PixelBounds quad{8, 8, 45, 33}, grown{0, 0, 53, 41};
     RegionTree a(quad, grown, 53.0 * 41), b(quad, grown, 53.0 * 41);
     RegionTreeParams p;
     p.target = 0.004;
@@ -460,7 +460,7 @@ TEST_CASE("rebuild_cells with one-pixel cells builds the per-pixel tree") {
 TEST_CASE("rebuild_cells equals rebuild on an error image constant inside its 8x8 cells") {
     // A grown rectangle offset from the origin whose last column and row of cells are cut
     // (37 = 4 * 8 + 5, 29 = 3 * 8 + 5): the narrow cells map linearly too.
-    const PixelRect quad{16, 8, 45, 29}, grown{8, 0, 45, 29};
+    const PixelBounds quad{16, 8, 45, 29}, grown{8, 0, 45, 29};
     for (uint32_t seed : {1u, 2u, 3u}) {
         ErrorImage fine = random_image(53, 41, seed);
         ErrorImage blocky = make_image(53, 41, 0.f);
@@ -492,7 +492,7 @@ TEST_CASE("rebuild_cells equals rebuild on an error image constant inside its 8x
 }
 
 TEST_CASE("rebuild_cells rejects a cell grid that does not cover the grown rectangle") {
-    RegionTree t(PixelRect{0, 0, 16, 16}, PixelRect{0, 0, 24, 24}, 1024);
+    RegionTree t(PixelBounds{0, 0, 16, 16}, PixelBounds{0, 0, 24, 24}, 1024);
     CellErrorImage cells;
     cells.cell = 8;
     cells.cols = 2;  // needs 3
@@ -510,7 +510,7 @@ TEST_CASE("rebuild_cells rejects a cell grid that does not cover the grown recta
 TEST_CASE("rebuild time of a 960x540 quadrant of a 1920x1080 image") {
     const int w = 1920, h = 1080;
     ErrorImage img = random_image(w, h, 11);
-    const PixelRect quad{0, 0, 960, 540}, grown{0, 0, 968, 548};
+    const PixelBounds quad{0, 0, 960, 540}, grown{0, 0, 968, 548};
     RegionTree t(quad, grown, double(w) * h);
     RegionTreeParams p;
     p.target = 0.002;

@@ -129,7 +129,7 @@ TEST_CASE("quadrants split at tile boundaries; every tile in exactly one quadran
         // Quadrant rectangles partition the image.
         long long area = 0;
         for (int q = 0; q < 4; ++q) {
-            sampling::PixelRect r = sched.quadrant_rect(q);
+            sampling::PixelBounds r = sched.quadrant_rect(q);
             area += r.empty() ? 0 : r.area();
             if (!r.empty())
                 CHECK(r.x0 % 8 == 0);
@@ -139,7 +139,7 @@ TEST_CASE("quadrants split at tile boundaries; every tile in exactly one quadran
         CHECK(area == (long long)w * h);
         for (size_t t = 0; t < sched.tiles().size(); ++t) {
             const Tile &tile = sched.tiles()[t];
-            sampling::PixelRect r = sched.quadrant_rect(int(sched.tile_quadrant(t)));
+            sampling::PixelBounds r = sched.quadrant_rect(int(sched.tile_quadrant(t)));
             CHECK(int(tile.x0) >= r.x0);
             CHECK(int(tile.x1) <= r.x1);
             CHECK(int(tile.y0) >= r.y0);
