@@ -1,4 +1,4 @@
-// The `tessera` command line: render, diff.
+// The `tessera` command line: render, samplers, diff.
 //
 // Exit codes: 0 success, 2 bad input (with "file:line: message"), 1 internal error.
 #include <CLI/CLI.hpp>
@@ -49,8 +49,15 @@ int main(int argc, char **argv) {
         ->check(CLI::NonNegativeNumber);
     std::string sampler_spec = "adaptive";
     render->add_option("--sampler", sampler_spec,
-                       "uniform | adaptive[:error=E,min-spp=N,max-pass-spp=N,split-factor=F] "
-                       "(default adaptive)");
+                       "NAME[:key=value,...]: uniform | adaptive (default) | fixed | jin | kim | "
+                       "fliptri | flipquad | suffern; `tessera samplers` lists their keys");
+    render->add_option("--integrator", ro.integrator,
+                       "path | whitted (default: path; whitted for the real-time samplers)");
+    render->add_option("--frames", ro.frames,
+                       "Real-time samplers: frames to render (statistics over all of them)")
+        ->check(CLI::PositiveNumber);
+    render->add_option("--orbit", ro.orbit_deg,
+                       "Real-time samplers: orbit the camera by DEGREES over the frames");
     uint32_t min_spp = 0;
     render->add_option("--min-spp", min_spp,
                        "Samples per pixel of the uniform first pass (default 16)")
@@ -79,6 +86,9 @@ int main(int argc, char **argv) {
     render->add_option("--exposure", ro.display.exposure_stops, "PNG exposure in stops");
     render->add_flag("-q,--quiet", ro.quiet, "No progress bar or summary");
 
+    CLI::App *samplers =
+        app.add_subcommand("samplers", "List the sampler plugins with their keys and defaults");
+
     std::string diff_a, diff_b;
     CLI::App *diff = app.add_subcommand("diff", "Compare two images: MSE, RMSE, relMSE, PSNR, means");
     diff->add_option("test", diff_a, "Image to test")->required();
@@ -93,6 +103,10 @@ int main(int argc, char **argv) {
 
     try {
         if (*diff) return tessera::run_diff(diff_a, diff_b, std::cout, std::cerr);
+        if (*samplers) {
+            std::cout << tessera::sampling::format_plugin_list();
+            return 0;
+        }
         if (*render) {
             if (!resolution.empty()) {
                 int w, h;

@@ -245,6 +245,52 @@ sigint)
     expect_rc 0
     [[ -s resumed.exr ]] || fail "resumed render wrote no image"
     ;;
+samplers_list)
+    run samplers
+    expect_rc 0
+    for name in uniform adaptive fixed jin kim fliptri flipquad suffern; do
+        grep -Eq "^$name " stdout.txt || fail "tessera samplers does not list $name"
+    done
+    grep -Eq "tau_col=0.6" stdout.txt || fail "jin's tau_col default is not listed"
+    ;;
+bad_sampler_key)
+    # An unknown key is an error naming the plugin and the key, before anything is rendered.
+    write_good_scene scene.pbrt
+    run render scene.pbrt -o out.exr --stats out.json --sampler jin:tau_bogus=1 -q
+    expect_rc 2
+    expect_stderr_line "sampler jin: unknown key \"tau_bogus\""
+    expect_no_output out
+    run render scene.pbrt -o out.exr --stats out.json --sampler fixed:spp=1000 -q
+    expect_rc 2
+    expect_stderr_line "sampler fixed: spp=1000 is outside"
+    expect_no_output out
+    run render scene.pbrt -o out.exr --stats out.json --sampler nosuch -q
+    expect_rc 2
+    expect_stderr_line 'unknown sampler "nosuch"'
+    expect_no_output out
+    run render scene.pbrt -o out.exr --stats out.json --sampler fixed --integrator nosuch -q
+    expect_rc 2
+    expect_stderr_line 'unknown integrator "nosuch"'
+    expect_no_output out
+    ;;
+realtime_frames)
+    # A real-time sampler renders whole frames with the Whitted integrator and reports them.
+    write_good_scene scene.pbrt
+    run render scene.pbrt -o out.exr --stats out.json --sampler jin --frames 3 --orbit 20 -q
+    expect_rc 0
+    for f in out.exr out.png out.json; do [[ -s "$f" ]] || fail "$f was not written"; done
+    python3 - out.json <<'PY' || fail "frame stats JSON check failed"
+import json, math, sys
+s = json.load(open(sys.argv[1]))
+for k in ("frame_ms_median", "frame_ms_p95", "rays_per_pixel", "active_fraction"):
+    assert k in s and math.isfinite(s[k]), k
+assert s["frames"] == 3 and len(s["frame_ms"]) == 3, s["frames"]
+assert s["integrator"] == "whitted", s["integrator"]
+assert s["rays_per_pixel"] >= 1, s["rays_per_pixel"]
+assert 0 <= s["active_fraction"] <= 1, s["active_fraction"]
+assert "active_subpixels" in s["diagnostic_layers"], s["diagnostic_layers"]
+PY
+    ;;
 *)
     fail "unknown case"
     ;;
