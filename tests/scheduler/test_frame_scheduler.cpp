@@ -7,6 +7,7 @@
 
 #include "sampling/pixel_sampler.h"
 #include "scheduler/frame_scheduler.h"
+#include "plugin_test_util.h"
 #include "synthetic_attribute_source.h"
 
 using namespace tessera;
@@ -93,14 +94,7 @@ TEST_CASE("plugin registry: names, kinds, parameter parsing and errors") {
     CHECK(a.params.get("error") == doctest::Approx(0.002));
     CHECK(a.params.get("split-factor") == 256);  // default filled in
 
-    auto msg = [](const char *text) {
-        try {
-            parse_plugin_spec(text);
-        } catch (const std::invalid_argument &e) {
-            return std::string(e.what());
-        }
-        return std::string("no error");
-    };
+    auto msg = [](const char *text) { return test::spec_error(text); };
     CHECK(msg("bogus").find("unknown sampler \"bogus\"") != std::string::npos);
     CHECK(msg("fixed:tau=1").find("sampler fixed: unknown key \"tau\"") != std::string::npos);
     CHECK(msg("fixed:spp=0").find("outside [1, 256]") != std::string::npos);

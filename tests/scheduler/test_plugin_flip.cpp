@@ -20,6 +20,7 @@
 
 #include "sampling/pixel_sampler.h"
 #include "scheduler/frame_scheduler.h"
+#include "plugin_test_util.h"
 #include "synthetic_attribute_source.h"
 
 using namespace tessera;
@@ -154,24 +155,7 @@ uint64_t quad_count(uint64_t w, uint64_t h) {
     return 2 * w * h + w + h;
 }
 
-void check_identical(const FrameResult &a, const FrameResult &b) {
-    REQUIRE(a.color.size() == b.color.size());
-    for (size_t i = 0; i < a.color.size(); ++i) {
-        CHECK(a.color[i].r == b.color[i].r);
-        CHECK(a.color[i].g == b.color[i].g);
-        CHECK(a.color[i].b == b.color[i].b);
-    }
-    CHECK(a.rays == b.rays);
-    REQUIRE(a.diagnostics.size() == b.diagnostics.size());
-    for (size_t i = 0; i < a.diagnostics.size(); ++i) {
-        CHECK(a.diagnostics[i].name == b.diagnostics[i].name);
-        CHECK(a.diagnostics[i].data == b.diagnostics[i].data);
-    }
-    CHECK(a.samples == b.samples);
-    CHECK(a.rays_total == b.rays_total);
-    CHECK(a.nan_samples == b.nan_samples);
-    CHECK(a.active_fraction == b.active_fraction);
-}
+void check_identical(const FrameResult &a, const FrameResult &b) { test::check_same_frame(a, b); }
 
 /// A scene with every kind of feature: linear shading, a disc, a slanted half-plane, a thin
 /// line, a checker-textured disc, a shadow and a reflecting shape.

@@ -27,7 +27,10 @@
 
 #include "sampling/pixel_sampler.h"
 #include "scheduler/frame_scheduler.h"
+#include "plugin_test_util.h"
 #include "synthetic_attribute_source.h"
+
+using tessera::test::check_same_frame;
 
 using namespace tessera;
 using namespace tessera::sampling;
@@ -603,22 +606,6 @@ std::unique_ptr<SyntheticAttributeSource> busy_scene() {
     return src;
 }
 
-/// Bitwise equality of two frames: colours, rays, every layer and the counts.
-void check_same_frame(const FrameResult &a, const FrameResult &b) {
-    REQUIRE(a.color.size() == b.color.size());
-    CHECK(std::memcmp(a.color.data(), b.color.data(), a.color.size() * sizeof(Rgb)) == 0);
-    CHECK(a.rays == b.rays);
-    REQUIRE(a.diagnostics.size() == b.diagnostics.size());
-    for (size_t i = 0; i < a.diagnostics.size(); ++i) {
-        CHECK(a.diagnostics[i].name == b.diagnostics[i].name);
-        CHECK(a.diagnostics[i].data == b.diagnostics[i].data);
-    }
-    CHECK(a.samples == b.samples);
-    CHECK(a.shaded == b.shaded);
-    CHECK(a.rays_total == b.rays_total);
-    CHECK(a.nan_samples == b.nan_samples);
-    CHECK(a.active_fraction == b.active_fraction);
-}
 }  // namespace
 
 TEST_CASE("kim: post-correction across tile borders equals one serial scan per line") {

@@ -15,6 +15,7 @@
 
 #include "sampling/pixel_sampler.h"
 #include "scheduler/frame_scheduler.h"
+#include "plugin_test_util.h"
 #include "synthetic_attribute_source.h"
 
 using namespace tessera;
@@ -251,14 +252,7 @@ TEST_CASE("suffern: parameters, defaults from the source, errors naming plugin a
     CHECK(s.params.get("tolerance") == doctest::Approx(0.01));
     CHECK(s.params.get_int("levels") == 1);
 
-    auto msg = [](const char *text) {
-        try {
-            parse_plugin_spec(text);
-        } catch (const std::invalid_argument &e) {
-            return std::string(e.what());
-        }
-        return std::string("no error");
-    };
+    auto msg = [](const char *text) { return test::spec_error(text); };
     CHECK(msg("suffern:levels=3").find("levels") != std::string::npos);
     CHECK(msg("suffern:levels=1.5").find("whole number") != std::string::npos);
     CHECK(msg("suffern:tolerance=-1").find("tolerance") != std::string::npos);
