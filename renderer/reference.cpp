@@ -267,8 +267,11 @@ Reference cached_reference(const Scene &scene, const std::string &scene_path,
             ref.from_cache = true;
             return ref;
         } catch (const SceneError &e) {
-            warn(FileLoc{exr.string(), 0}, std::string("cached reference unusable, rebuilding (") +
-                                               e.what() + ")");
+            // e.what() starts with "<path>:0: ", which the warning prints already.
+            std::string why = e.what();
+            const std::string prefix = exr.string() + ":0: ";
+            if (why.rfind(prefix, 0) == 0) why = why.substr(prefix.size());
+            warn(FileLoc{exr.string(), 0}, "cached reference unusable, rebuilding it (" + why + ")");
         }
     }
     fs::create_directories(dir, ec);
