@@ -9,7 +9,7 @@
   environment/sky.pfm                 96x96 linear RGB equal-area (pbrt-v4 octahedral) sky,
                                       box-filtered over 4x4 samples per pixel:
                                       blue gradient, warm horizon, dark ground and a small sun
-                                      of about 2.5 degrees radius, 35 degrees above the horizon
+                                      of 5 degrees radius, 35 degrees above the horizon
 
 The files are committed (each well under 200 KB); run this only to change them. The output is
 the same on every machine: integer hashing, no random module, no floating-point formatting.
@@ -123,11 +123,11 @@ def sky():
     n = 96
     elev, azim = math.radians(35), math.radians(-60)
     sun = (math.cos(elev) * math.cos(azim), math.cos(elev) * math.sin(azim), math.sin(elev))
-    cos_sun = math.cos(math.radians(2.5))
+    cos_sun = math.cos(math.radians(5.0))
     def radiance(d):
         h = d[2]  # sine of the elevation
         if sum(a * b for a, b in zip(d, sun)) > cos_sun:
-            return (900.0, 820.0, 700.0)
+            return (220.0, 200.0, 170.0)
         if h < 0:
             return (0.09, 0.08, 0.07)
         t = (1 - h) ** 4

@@ -72,8 +72,10 @@ def usable(row):
 
 def sanity_problems(data):
     """What is wrong with a run's numbers, as readable strings (empty: sane). Checks that every
-    sampler has rows, that every error is finite, and that its error falls with time: the last
-    usable snapshot below the first, and a negative fitted MSE slope."""
+    sampler has rows, that every error is finite, and that its error falls with time: MAE at the
+    last usable snapshot below the first, and a negative fitted MAE slope. (MAE, not MSE: at the
+    few samples of a quick run one firefly can lift the MSE of a later snapshot above an earlier
+    one, while MAE follows the bulk of the pixels.)"""
     problems = []
     name = os.path.basename(os.path.normpath(data.get("dir", "?")))
     for s in data["samplers"]:
@@ -91,12 +93,12 @@ def sanity_problems(data):
         if len(good) < 2:
             problems.append(f"{label}: fewer than two snapshots with every pixel sampled")
             continue
-        first, last = good[0]["mse"]["total"], good[-1]["mse"]["total"]
+        first, last = good[0]["mae"]["total"], good[-1]["mae"]["total"]
         if not (last < first):
-            problems.append(f"{label}: MSE does not fall with time ({first:.4g} -> {last:.4g})")
-        slope = s["fit"]["mse"]["slope"]
+            problems.append(f"{label}: MAE does not fall with time ({first:.4g} -> {last:.4g})")
+        slope = s["fit"]["mae"]["slope"]
         if slope is None or not slope < 0:
-            problems.append(f"{label}: fitted MSE slope {slope} is not negative")
+            problems.append(f"{label}: fitted MAE slope {slope} is not negative")
         if not (good[-1]["time_s"] > good[0]["time_s"]):
             problems.append(f"{label}: render time does not grow between snapshots")
     return problems
