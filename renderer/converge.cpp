@@ -40,7 +40,8 @@ double seconds_since(Clock::time_point t0) {
 // replaced by '-', for file names.
 std::string make_slug(size_t index, const std::string &spec) {
     std::string s = std::to_string(index) + "-";
-    for (char c : spec) s += std::isalnum(static_cast<unsigned char>(c)) || c == '.' ? c : '-';
+    for (char c : spec)
+        s += std::isalnum(static_cast<unsigned char>(c)) || c == '.' ? c : '-';
     return s;
 }
 
@@ -58,15 +59,8 @@ void write_pfm(const std::string &path, uint32_t w, uint32_t h, const std::vecto
         for (uint32_t y = h; y-- > 0;)
             f.write(reinterpret_cast<const char *>(v.data() + size_t(y) * w),
                     std::streamsize(sizeof(float) * w));
-        if (!f) throw std::runtime_error(path + ": cannot write");
-    });
-}
-
-void write_text_file(const std::string &path, const std::string &text) {
-    write_atomically(path, [&](const std::string &tmp) {
-        std::ofstream f(tmp, std::ios::binary);
-        f << text;
-        if (!f) throw std::runtime_error(path + ": cannot write");
+        if (!f)
+            throw std::runtime_error(path + ": cannot write");
     });
 }
 
@@ -122,8 +116,7 @@ std::vector<ConvergenceRow> run_sampler(const Scene &scene, const SamplerSpec &s
         row.passes = passes;
         row.mean_spp = double(film.total_samples()) / pixels;
         row.coverage =
-            double(std::count_if(spp.begin(), spp.end(), [](float v) { return v > 0; })) /
-            pixels;
+            double(std::count_if(spp.begin(), spp.end(), [](float v) { return v > 0; })) / pixels;
         row.stopped = stopped;
         row.metrics = sampling::compare_images(img, ref, 1.0);
         if (!opt.quiet)
@@ -146,9 +139,11 @@ std::vector<ConvergenceRow> run_sampler(const Scene &scene, const SamplerSpec &s
 void summarise_sampler(ConvergeResult &r, size_t i) {
     std::vector<double> t, mse, rel, rmse, mae, head;
     for (const ConvergenceRow &row : r.rows) {
-        if (row.sampler != i) continue;
+        if (row.sampler != i)
+            continue;
         r.samplers[i].final_time_s = row.time_s;
-        if (row.coverage < 1.0) continue;
+        if (row.coverage < 1.0)
+            continue;
         t.push_back(row.time_s);
         mse.push_back(row.metrics.mse.total);
         rel.push_back(row.metrics.rel_mse.total);
@@ -162,7 +157,8 @@ void summarise_sampler(ConvergeResult &r, size_t i) {
     s.fit_rmse = sampling::fit_loglog(t, rmse);
     s.fit_mae = sampling::fit_loglog(t, mae);
     s.crossings.clear();
-    for (double level : r.levels) s.crossings.push_back(sampling::time_to_reach(t, head, level));
+    for (double level : r.levels)
+        s.crossings.push_back(sampling::time_to_reach(t, head, level));
 }
 
 nlohmann::json finite_or_null(double v) {
@@ -177,22 +173,29 @@ nlohmann::json metric_json(const sampling::ChannelMetric &m) {
 }
 
 nlohmann::json fit_json(const sampling::LogLogFit &f) {
-    if (!f.valid) return {{"slope", nullptr}, {"intercept", nullptr}, {"points", f.points}};
+    if (!f.valid)
+        return {{"slope", nullptr}, {"intercept", nullptr}, {"points", f.points}};
     return {{"slope", f.slope}, {"intercept", f.intercept}, {"points", f.points}};
 }
 
 const char *crossing_kind(sampling::Crossing::Kind k) {
     switch (k) {
-        case sampling::Crossing::Kind::reached: return "reached";
-        case sampling::Crossing::Kind::before_first: return "before_first";
-        default: return "not_reached";
+        case sampling::Crossing::Kind::reached:
+            return "reached";
+        case sampling::Crossing::Kind::before_first:
+            return "before_first";
+        default:
+            return "not_reached";
     }
 }
 
 std::string metric_label(const std::string &metric) {
-    if (metric == "mse") return "MSE";
-    if (metric == "relmse") return "relMSE";
-    if (metric == "rmse") return "RMSE";
+    if (metric == "mse")
+        return "MSE";
+    if (metric == "relmse")
+        return "relMSE";
+    if (metric == "rmse")
+        return "RMSE";
     return "MAE";
 }
 
@@ -200,9 +203,9 @@ std::string metric_label(const std::string &metric) {
 // reached within the budget).
 std::string crossing_cell(const sampling::Crossing &c) {
     char buf[64];
-    const char *prefix = c.kind == sampling::Crossing::Kind::before_first ? "<="
+    const char *prefix = c.kind == sampling::Crossing::Kind::before_first  ? "<="
                          : c.kind == sampling::Crossing::Kind::not_reached ? ">"
-                                                                            : "";
+                                                                           : "";
     std::snprintf(buf, sizeof buf, "%s%.3g", prefix, c.time_s);
     return buf;
 }
@@ -226,14 +229,14 @@ nlohmann::json result_json(const ConvergeResult &r, const ConvergeOptions &opt,
                      {"spp_cap", opt.overrides.spp ? nlohmann::json(*opt.overrides.spp)
                                                    : nlohmann::json(nullptr)},
                      {"metric", r.metric}};
-    j["reference"] = {{"path", r.reference_path},
-                      {"cached", r.reference_cached},
-                      {"rendered", r.reference_rendered},
-                      {"noise_mse", r.reference_noise_mse >= 0 ? nlohmann::json(r.reference_noise_mse)
-                                                               : nlohmann::json(nullptr)},
-                      {"noise_relmse", r.reference_noise_rel_mse >= 0
-                                           ? nlohmann::json(r.reference_noise_rel_mse)
-                                           : nlohmann::json(nullptr)}};
+    j["reference"] = {
+        {"path", r.reference_path},
+        {"cached", r.reference_cached},
+        {"rendered", r.reference_rendered},
+        {"noise_mse", r.reference_noise_mse >= 0 ? nlohmann::json(r.reference_noise_mse)
+                                                 : nlohmann::json(nullptr)},
+        {"noise_relmse", r.reference_noise_rel_mse >= 0 ? nlohmann::json(r.reference_noise_rel_mse)
+                                                        : nlohmann::json(nullptr)}};
     nlohmann::json samplers = nlohmann::json::array();
     for (size_t i = 0; i < r.samplers.size(); ++i) {
         const ConvergenceSampler &s = r.samplers[i];
@@ -247,10 +250,11 @@ nlohmann::json result_json(const ConvergeResult &r, const ConvergeOptions &opt,
                             {"description", s.description},
                             {"slug", s.slug},
                             {"final_time_s", s.final_time_s},
-                            {"fit", {{"mse", fit_json(s.fit_mse)},
-                                     {"relmse", fit_json(s.fit_rel_mse)},
-                                     {"rmse", fit_json(s.fit_rmse)},
-                                     {"mae", fit_json(s.fit_mae)}}},
+                            {"fit",
+                             {{"mse", fit_json(s.fit_mse)},
+                              {"relmse", fit_json(s.fit_rel_mse)},
+                              {"rmse", fit_json(s.fit_rmse)},
+                              {"mae", fit_json(s.fit_mae)}}},
                             {"time_to_error", cross},
                             {"images", images[i]}});
     }
@@ -284,36 +288,47 @@ nlohmann::json result_json(const ConvergeResult &r, const ConvergeOptions &opt,
 // Runs `argv` (argv[0] looked up in PATH), waits, and returns its exit status (127: not run).
 int run_program(const std::vector<std::string> &args) {
     std::vector<char *> argv;
-    for (const std::string &a : args) argv.push_back(const_cast<char *>(a.c_str()));
+    for (const std::string &a : args)
+        argv.push_back(const_cast<char *>(a.c_str()));
     argv.push_back(nullptr);
     pid_t pid = 0;
-    if (posix_spawnp(&pid, argv[0], nullptr, nullptr, argv.data(), environ) != 0) return 127;
+    if (posix_spawnp(&pid, argv[0], nullptr, nullptr, argv.data(), environ) != 0)
+        return 127;
     int status = 0;
-    if (waitpid(pid, &status, 0) < 0) return 127;
+    if (waitpid(pid, &status, 0) < 0)
+        return 127;
     return WIFEXITED(status) ? WEXITSTATUS(status) : 128;
 }
 
 void check_options(const ConvergeOptions &o) {
     if (!(o.time_s > 0) || !std::isfinite(o.time_s))
         throw SceneError("--time: a budget in seconds > 0 is required");
-    if (o.snapshots < 1) throw SceneError("--snapshots: at least 1");
+    if (o.snapshots < 1)
+        throw SceneError("--snapshots: at least 1");
     if (o.first_snapshot_s < 0 || o.first_snapshot_s > o.time_s)
         throw SceneError("--first-snapshot: must lie in (0, --time]");
-    if (o.output_dir.empty()) throw SceneError("-o: an output folder is required");
+    if (o.output_dir.empty())
+        throw SceneError("-o: an output folder is required");
     if (o.metric != "mse" && o.metric != "relmse" && o.metric != "rmse" && o.metric != "mae")
         throw SceneError("--metric: expected mse, relmse, rmse or mae, got \"" + o.metric + "\"");
     for (double e : o.target_errors)
-        if (!(e > 0) || !std::isfinite(e)) throw SceneError("--target-error: must be > 0");
-    if (o.reference_spp < 1) throw SceneError("--reference-spp: at least 1");
+        if (!(e > 0) || !std::isfinite(e))
+            throw SceneError("--target-error: must be > 0");
+    if (o.reference_spp < 1)
+        throw SceneError("--reference-spp: at least 1");
 }
 
 }  // namespace
 
 double headline_value(const sampling::ImageComparison &m, const std::string &metric) {
-    if (metric == "mse") return m.mse.total;
-    if (metric == "relmse") return m.rel_mse.total;
-    if (metric == "rmse") return m.rmse.total;
-    if (metric == "mae") return m.mae.total;
+    if (metric == "mse")
+        return m.mse.total;
+    if (metric == "relmse")
+        return m.rel_mse.total;
+    if (metric == "rmse")
+        return m.rmse.total;
+    if (metric == "mae")
+        return m.mae.total;
     throw std::invalid_argument("unknown metric \"" + metric + "\"");
 }
 
@@ -324,9 +339,11 @@ std::vector<double> default_levels(const ConvergeResult &r) {
         for (const ConvergenceRow &row : r.rows)
             if (row.sampler == i && row.coverage >= 1.0)
                 last = headline_value(row.metrics, r.metric);
-        if (std::isfinite(last)) worst = std::max(worst, last);
+        if (std::isfinite(last))
+            worst = std::max(worst, last);
     }
-    if (!(worst > 0)) return {};
+    if (!(worst > 0))
+        return {};
     return {4 * worst, 2 * worst, worst};
 }
 
@@ -337,7 +354,8 @@ std::string format_headline(const ConvergeResult &r) {
        << " E, seconds (log-log interpolation between snapshots; <= : already at the first "
           "snapshot, > : not within the budget)\n";
     size_t name_w = 8;
-    for (const ConvergenceSampler &s : r.samplers) name_w = std::max(name_w, s.spec.size());
+    for (const ConvergenceSampler &s : r.samplers)
+        name_w = std::max(name_w, s.spec.size());
     std::snprintf(buf, sizeof buf, "%-*s", int(name_w), "sampler");
     os << buf;
     for (double l : r.levels) {
@@ -358,7 +376,8 @@ std::string format_headline(const ConvergeResult &r) {
         // Speed-up at the lowest level against the first sampler, when both reached it.
         std::string speed = "-";
         if (!r.levels.empty() && !r.samplers.front().crossings.empty()) {
-            const sampling::Crossing &a = r.samplers.front().crossings[last], &b = s.crossings[last];
+            const sampling::Crossing &a = r.samplers.front().crossings[last],
+                                     &b = s.crossings[last];
             if (a.kind == sampling::Crossing::Kind::reached &&
                 b.kind == sampling::Crossing::Kind::reached && b.time_s > 0) {
                 std::snprintf(buf, sizeof buf, "%.2fx", a.time_s / b.time_s);
@@ -387,8 +406,8 @@ std::string convergence_csv(const ConvergeResult &r) {
         // The spec may hold commas (adaptive:error=0.002,min-spp=8): quoted.
         os << row.sampler << ",\"" << r.samplers[row.sampler].spec << "\"," << row.snapshot << ","
            << num(row.target_time_s) << "," << num(row.time_s) << "," << num(row.snapshot_cost_s)
-           << "," << num(row.mean_spp) << "," << row.samples << "," << row.rays << ","
-           << row.passes << "," << num(row.coverage) << "," << (row.stopped ? 1 : 0);
+           << "," << num(row.mean_spp) << "," << row.samples << "," << row.rays << "," << row.passes
+           << "," << num(row.coverage) << "," << (row.stopped ? 1 : 0);
         const sampling::ImageComparison &m = row.metrics;
         for (const sampling::ChannelMetric *cm : {&m.mse, &m.rel_mse, &m.rmse, &m.psnr, &m.mae})
             os << "," << num(cm->channel[0]) << "," << num(cm->channel[1]) << ","
@@ -401,7 +420,8 @@ std::string convergence_csv(const ConvergeResult &r) {
 std::string find_report_script() {
     const char *env = std::getenv("TESSERA_REPORT_SCRIPT");
     std::error_code ec;
-    if (env && *env) return fs::is_regular_file(env, ec) ? std::string(env) : std::string();
+    if (env && *env)
+        return fs::is_regular_file(env, ec) ? std::string(env) : std::string();
     std::vector<fs::path> candidates;
     fs::path exe = fs::read_symlink("/proc/self/exe", ec);
     if (!ec) {
@@ -412,16 +432,19 @@ std::string find_report_script() {
     }
     candidates.push_back(fs::path(TESSERA_SOURCE_DIR) / "scripts" / "convergence_report.py");
     for (const fs::path &p : candidates)
-        if (fs::is_regular_file(p, ec)) return fs::weakly_canonical(p, ec).string();
+        if (fs::is_regular_file(p, ec))
+            return fs::weakly_canonical(p, ec).string();
     return {};
 }
 
 ConvergeResult run_converge(const ConvergeOptions &opt_in) {
     ConvergeOptions opt = opt_in;
-    if (opt.samplers.empty()) opt.samplers = {"uniform", "adaptive"};
+    if (opt.samplers.empty())
+        opt.samplers = {"uniform", "adaptive"};
     check_options(opt);
     std::vector<SamplerSpec> specs;
-    for (const std::string &s : opt.samplers) specs.push_back(parse_sampler_spec(s));
+    for (const std::string &s : opt.samplers)
+        specs.push_back(parse_sampler_spec(s));
 
     // Bad input first, before anything is rendered or written.
     std::unique_ptr<Scene> scene = load_scene(opt.scene, opt.overrides);
@@ -438,7 +461,8 @@ ConvergeResult run_converge(const ConvergeOptions &opt_in) {
     r.hardware_threads = std::thread::hardware_concurrency();
     r.scene_hash = scene_content_hash(opt.scene);
     Reference ref;
-    if (!opt.reference.empty()) ref = load_reference(opt.reference, r.width, r.height);
+    if (!opt.reference.empty())
+        ref = load_reference(opt.reference, r.width, r.height);
 
     const fs::path dir(opt.output_dir);
     std::error_code ec;
@@ -480,16 +504,18 @@ ConvergeResult run_converge(const ConvergeOptions &opt_in) {
         s.description = specs[i].describe();
         s.slug = make_slug(i, s.spec);
         r.samplers.push_back(s);
-        std::vector<ConvergenceRow> rows = run_sampler(*scene, specs[i], opt, r.snapshot_times,
-                                                       ref.image, s.spec, finals[i]);
-        for (ConvergenceRow &row : rows) row.sampler = i;
+        std::vector<ConvergenceRow> rows =
+            run_sampler(*scene, specs[i], opt, r.snapshot_times, ref.image, s.spec, finals[i]);
+        for (ConvergenceRow &row : rows)
+            row.sampler = i;
         r.rows.insert(r.rows.end(), rows.begin(), rows.end());
     }
-    r.threads = opt.threads ? opt.threads
-                            : uint32_t(std::max(1u, std::thread::hardware_concurrency()));
+    r.threads =
+        opt.threads ? opt.threads : uint32_t(std::max(1u, std::thread::hardware_concurrency()));
     r.levels = opt.target_errors.empty() ? default_levels(r) : opt.target_errors;
     std::sort(r.levels.begin(), r.levels.end(), std::greater<>());
-    for (size_t i = 0; i < r.samplers.size(); ++i) summarise_sampler(r, i);
+    for (size_t i = 0; i < r.samplers.size(); ++i)
+        summarise_sampler(r, i);
 
     // Images: the reference and each sampler's final snapshot (EXR with spp, PNG, spp PFM).
     const fs::path images = dir / "images";
@@ -516,24 +542,25 @@ ConvergeResult run_converge(const ConvergeOptions &opt_in) {
     j["settings"]["seed"] = scene->settings.seed;
     j["settings"]["first_snapshot_s"] = first;
     j["reference"]["png"] = "images/reference.png";
-    j["reference"]["spp"] = opt.reference.empty() ? nlohmann::json(opt.reference_spp)
-                                                  : nlohmann::json(nullptr);
-    write_text_file((dir / "convergence.csv").string(), convergence_csv(r));
-    write_text_file((dir / "convergence.json").string(), j.dump(2) + "\n");
+    j["reference"]["spp"] =
+        opt.reference.empty() ? nlohmann::json(opt.reference_spp) : nlohmann::json(nullptr);
+    write_text_atomically((dir / "convergence.csv").string(), convergence_csv(r));
+    write_text_atomically((dir / "convergence.json").string(), j.dump(2) + "\n");
 
-    std::printf("tessera converge: %s, %ux%u, %.3g s per sampler, %u threads\n",
-                opt.scene.c_str(), r.width, r.height, opt.time_s, r.threads);
+    std::printf("tessera converge: %s, %ux%u, %.3g s per sampler, %u threads\n", opt.scene.c_str(),
+                r.width, r.height, opt.time_s, r.threads);
     std::fputs(format_headline(r).c_str(), stdout);
     std::fflush(stdout);
 
     if (opt.report) {
         std::string script = opt.report_script.empty() ? find_report_script() : opt.report_script;
         const char *py = std::getenv("TESSERA_PYTHON");
-        int rc = script.empty() ? 127
-                                : run_program({py && *py ? py : "python3", script, dir.string()});
+        int rc =
+            script.empty() ? 127 : run_program({py && *py ? py : "python3", script, dir.string()});
         if (rc == 0) {
             r.report_path = (dir / "report.html").string();
-            if (!opt.quiet) std::fprintf(stderr, "tessera: wrote %s\n", r.report_path.c_str());
+            if (!opt.quiet)
+                std::fprintf(stderr, "tessera: wrote %s\n", r.report_path.c_str());
         } else {
             std::fprintf(stderr,
                          "tessera: warning: report.html not written (%s); convergence.csv and "

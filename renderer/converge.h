@@ -61,16 +61,16 @@ struct ConvergeOptions {
 
 /// One snapshot of one sampler's render.
 struct ConvergenceRow {
-    size_t sampler = 0;        ///< index into ConvergeResult::samplers
-    uint32_t snapshot = 0;     ///< 0-based
-    double target_time_s = 0;  ///< scheduled time
-    double time_s = 0;         ///< render time reached (snapshots excluded)
+    size_t sampler = 0;          ///< index into ConvergeResult::samplers
+    uint32_t snapshot = 0;       ///< 0-based
+    double target_time_s = 0;    ///< scheduled time
+    double time_s = 0;           ///< render time reached (snapshots excluded)
     double snapshot_cost_s = 0;  ///< time to copy the film's images at this snapshot
     double mean_spp = 0;
     uint64_t samples = 0, rays = 0;
-    uint32_t passes = 0;       ///< passes every tile completed
-    double coverage = 0;       ///< fraction of pixels with at least one sample
-    bool stopped = false;      ///< the sampler stopped by itself (converged or --spp reached)
+    uint32_t passes = 0;   ///< passes every tile completed
+    double coverage = 0;   ///< fraction of pixels with at least one sample
+    bool stopped = false;  ///< the sampler stopped by itself (converged or --spp reached)
     sampling::ImageComparison metrics;
 };
 

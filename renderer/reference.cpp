@@ -37,7 +37,8 @@ std::string hex128(const std::string &bytes) {
 
 bool read_bytes(const std::string &path, std::string *out) {
     std::ifstream f(path, std::ios::binary);
-    if (!f) return false;
+    if (!f)
+        return false;
     std::ostringstream ss;
     ss << f.rdbuf();
     *out = ss.str();
@@ -53,11 +54,14 @@ bool is_file(const fs::path &p) {
 // builder resolves meshes and textures); "" when neither is an existing file.
 std::string existing_file(const std::string &base_dir, const FileLoc &loc,
                           const std::string &name) {
-    if (name.empty() || name.size() > 4096) return {};
+    if (name.empty() || name.size() > 4096)
+        return {};
     fs::path p(name);
-    if (p.is_absolute()) return is_file(p) ? p.string() : std::string();
+    if (p.is_absolute())
+        return is_file(p) ? p.string() : std::string();
     fs::path main = base_dir.empty() ? p : fs::path(base_dir) / p;
-    if (is_file(main)) return main.string();
+    if (is_file(main))
+        return main.string();
     fs::path alt = fs::path(loc.file).parent_path() / p;
     return is_file(alt) ? alt.string() : std::string();
 }
@@ -66,10 +70,12 @@ std::string existing_file(const std::string &base_dir, const FileLoc &loc,
 void add_param_files(const ParamSet &ps, const std::string &base_dir, const FileLoc &loc,
                      std::set<std::string> &out) {
     for (const Param &p : ps.params) {
-        if (p.type != "string") continue;
+        if (p.type != "string")
+            continue;
         for (const std::string &s : p.strings) {
             std::string f = existing_file(base_dir, p.loc.file.empty() ? loc : p.loc, s);
-            if (!f.empty()) out.insert(f);
+            if (!f.empty())
+                out.insert(f);
         }
     }
 }
@@ -84,24 +90,30 @@ void add_obj_files(const std::string &obj, std::set<std::string> &out) {
         while (std::getline(is, line)) {
             std::istringstream ls(line);
             std::string key, last, word;
-            if (!(ls >> key) || !accept(key)) continue;
-            while (ls >> word) last = word;  // options come first; the file name is last
-            if (!last.empty()) names.push_back(last);
+            if (!(ls >> key) || !accept(key))
+                continue;
+            while (ls >> word)
+                last = word;  // options come first; the file name is last
+            if (!last.empty())
+                names.push_back(last);
         }
         return names;
     };
     std::string text;
-    if (!read_bytes(obj, &text)) return;
+    if (!read_bytes(obj, &text))
+        return;
     for (const std::string &m :
          names_after(text, [](const std::string &k) { return k == "mtllib"; })) {
         fs::path mtl = dir / m;
         std::string mtext;
-        if (!read_bytes(mtl.string(), &mtext)) continue;
+        if (!read_bytes(mtl.string(), &mtext))
+            continue;
         out.insert(mtl.string());
         for (const std::string &t : names_after(mtext, [](const std::string &k) {
                  return k.starts_with("map_") || k == "bump" || k == "norm" || k == "disp";
              }))
-            if (is_file(dir / t)) out.insert((dir / t).string());
+            if (is_file(dir / t))
+                out.insert((dir / t).string());
     }
 }
 
@@ -110,19 +122,25 @@ void add_obj_files(const std::string &obj, std::set<std::string> &out) {
 std::vector<std::string> scene_dependencies(const std::string &scene_path) {
     std::set<std::string> deps;
     std::string ext = fs::path(scene_path).extension().string();
-    std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
+    std::transform(ext.begin(), ext.end(), ext.begin(),
+                   [](unsigned char c) { return std::tolower(c); });
     if (ext == ".obj") {
         add_obj_files(scene_path, deps);
     } else if (ext != ".ply") {
         SceneDesc d = parse_pbrt_file(scene_path);
-        for (const std::string &f : d.read_files) deps.insert(f);
-        for (const ShapeDesc &s : d.shapes) add_param_files(s.params, s.base_dir, s.loc, deps);
+        for (const std::string &f : d.read_files)
+            deps.insert(f);
+        for (const ShapeDesc &s : d.shapes)
+            add_param_files(s.params, s.base_dir, s.loc, deps);
         for (const auto &[name, o] : d.objects)
-            for (const ShapeDesc &s : o.shapes) add_param_files(s.params, s.base_dir, s.loc, deps);
+            for (const ShapeDesc &s : o.shapes)
+                add_param_files(s.params, s.base_dir, s.loc, deps);
         for (const auto &[name, m] : d.materials)
             add_param_files(m.params, m.base_dir, m.loc, deps);
-        for (const TextureDesc &t : d.textures) add_param_files(t.params, t.base_dir, t.loc, deps);
-        for (const LightDesc &l : d.lights) add_param_files(l.params, l.base_dir, l.loc, deps);
+        for (const TextureDesc &t : d.textures)
+            add_param_files(t.params, t.base_dir, t.loc, deps);
+        for (const LightDesc &l : d.lights)
+            add_param_files(l.params, l.base_dir, l.loc, deps);
         // Camera, sampler, integrator and filter take no input files in pbrt-v4 except the
         // camera's lens file; the Film's "filename" is the output and is left out.
         const std::string dir = fs::path(scene_path).parent_path().string();
@@ -140,7 +158,8 @@ std::string scene_content_hash(const std::string &scene_path) {
     std::string manifest;
     for (const std::string &f : scene_dependencies(scene_path)) {
         std::string bytes;
-        if (!read_bytes(f, &bytes)) throw std::runtime_error(f + ": cannot read (scene input)");
+        if (!read_bytes(f, &bytes))
+            throw std::runtime_error(f + ": cannot read (scene input)");
         // Names relative to the scene's folder, so that moving the folder keeps the hash.
         std::error_code ec;
         fs::path rel = fs::proximate(fs::path(f), dir.empty() ? fs::path(".") : dir, ec);
@@ -154,9 +173,11 @@ std::string scene_content_hash(const std::string &scene_path) {
 
 std::string default_cache_dir() {
     const char *xdg = std::getenv("XDG_CACHE_HOME");
-    if (xdg && *xdg) return (fs::path(xdg) / "tessera").string();
+    if (xdg && *xdg)
+        return (fs::path(xdg) / "tessera").string();
     const char *home = std::getenv("HOME");
-    if (home && *home) return (fs::path(home) / ".cache" / "tessera").string();
+    if (home && *home)
+        return (fs::path(home) / ".cache" / "tessera").string();
     return (fs::temp_directory_path() / "tessera-cache").string();
 }
 
@@ -169,14 +190,17 @@ std::string reference_key(const std::string &scene_hash, const ReferenceSettings
 }
 
 double Reference::noise_mse() const {
-    if (variance.empty()) return -1;
+    if (variance.empty())
+        return -1;
     double sum = 0;
-    for (float v : variance) sum += v;
+    for (float v : variance)
+        sum += v;
     return sum / double(variance.size());
 }
 
 double Reference::noise_rel_mse() const {
-    if (variance.empty() || variance.size() != image.data.size()) return -1;
+    if (variance.empty() || variance.size() != image.data.size())
+        return -1;
     double sum = 0;
     for (size_t i = 0; i < variance.size(); ++i) {
         const double r = image.data[i];
@@ -188,7 +212,8 @@ double Reference::noise_rel_mse() const {
 Reference load_reference(const std::string &path, uint32_t width, uint32_t height) {
     const std::string where = path + ":0: ";
     std::error_code ec;
-    if (!fs::exists(path, ec)) throw SceneError(where + "reference image not found");
+    if (!fs::exists(path, ec))
+        throw SceneError(where + "reference image not found");
     Reference ref;
     ref.path = path;
     try {
@@ -201,11 +226,12 @@ Reference load_reference(const std::string &path, uint32_t width, uint32_t heigh
                          std::to_string(ref.image.height) + " but the renders are " +
                          std::to_string(width) + "x" + std::to_string(height) +
                          " (render the reference at that size, or pass --resolution " +
-                         std::to_string(ref.image.width) + "x" +
-                         std::to_string(ref.image.height) + ")");
+                         std::to_string(ref.image.width) + "x" + std::to_string(ref.image.height) +
+                         ")");
     if (size_t bad = sampling::nonfinite_count(ref.image)) {
         size_t first = 0;
-        while (std::isfinite(ref.image.data[first])) ++first;
+        while (std::isfinite(ref.image.data[first]))
+            ++first;
         const size_t px = first / 3;
         throw SceneError(where + "the reference has " + std::to_string(bad) +
                          " non-finite values (NaN or Inf), the first at pixel (" +
@@ -218,7 +244,8 @@ Reference load_reference(const std::string &path, uint32_t width, uint32_t heigh
             read_image_channels(path, {"variance.R", "variance.G", "variance.B"}, w, h);
         bool ok = w == width && h == height &&
                   std::all_of(var.begin(), var.end(), [](float v) { return std::isfinite(v); });
-        if (ok) ref.variance = std::move(var);
+        if (ok)
+            ref.variance = std::move(var);
     } catch (const std::exception &) {
         // No variance layer: the noise floor is unknown.
     }
@@ -270,8 +297,10 @@ Reference cached_reference(const Scene &scene, const std::string &scene_path,
             // e.what() starts with "<path>:0: ", which the warning prints already.
             std::string why = e.what();
             const std::string prefix = exr.string() + ":0: ";
-            if (why.rfind(prefix, 0) == 0) why = why.substr(prefix.size());
-            warn(FileLoc{exr.string(), 0}, "cached reference unusable, rebuilding it (" + why + ")");
+            if (why.rfind(prefix, 0) == 0)
+                why = why.substr(prefix.size());
+            warn(FileLoc{exr.string(), 0},
+                 "cached reference unusable, rebuilding it (" + why + ")");
         }
     }
     fs::create_directories(dir, ec);
@@ -293,11 +322,7 @@ Reference cached_reference(const Scene &scene, const std::string &scene_path,
     j["version"] = TESSERA_VERSION;
     j["render_s"] = ref.render_s;
     j["dependencies"] = scene_dependencies(scene_path);
-    write_atomically(meta.string(), [&](const std::string &tmp) {
-        std::ofstream f(tmp);
-        f << j.dump(2) << "\n";
-        if (!f) throw std::runtime_error(meta.string() + ": cannot write");
-    });
+    write_text_atomically(meta.string(), j.dump(2) + "\n");
     ref.path = exr.string();
     ref.key = key;
     return ref;

@@ -45,7 +45,9 @@ std::string default_cache_dir();
 
 /// The seed a reference uses for a render seeded `seed`: a different one, so that reference and
 /// test image do not share sample values (same seed, same pixel, same index -> same path).
-inline uint32_t reference_seed(uint32_t seed) { return seed ^ 0x52454631u; }  // "REF1"
+inline uint32_t reference_seed(uint32_t seed) {
+    return seed ^ 0x52454631u;
+}  // "REF1"
 
 /// What a reference render is made of (the cache key covers all but threads and quiet).
 struct ReferenceSettings {
@@ -62,15 +64,15 @@ std::string reference_key(const std::string &scene_hash, const ReferenceSettings
 
 /// A reference image in memory.
 struct Reference {
-    sampling::RgbImage image;    ///< linear RGB
+    sampling::RgbImage image;  ///< linear RGB
     /// Estimated variance of each pixel's mean, 3 floats per pixel; empty when unknown (a
     /// reference given with --reference that has no variance layer).
     std::vector<float> variance;
-    std::string path;            ///< the EXR it was read from or written to
-    std::string key;             ///< cache key ("" for a given reference)
-    bool from_cache = false;     ///< read back from the cache
-    bool rendered = false;       ///< rendered by this call
-    double render_s = 0;         ///< wall time of that render
+    std::string path;         ///< the EXR it was read from or written to
+    std::string key;          ///< cache key ("" for a given reference)
+    bool from_cache = false;  ///< read back from the cache
+    bool rendered = false;    ///< rendered by this call
+    double render_s = 0;      ///< wall time of that render
     /// Mean estimated variance over pixels and channels: the expected MSE a perfect test
     /// image would show against this reference. < 0 when unknown.
     double noise_mse() const;

@@ -8,7 +8,9 @@ namespace tessera::sampling {
 
 namespace {
 
-bool usable(double t, double e) { return t > 0 && std::isfinite(t) && e > 0 && std::isfinite(e); }
+bool usable(double t, double e) {
+    return t > 0 && std::isfinite(t) && e > 0 && std::isfinite(e);
+}
 
 void check_sizes(std::span<const double> a, std::span<const double> b) {
     if (a.size() != b.size())
@@ -20,7 +22,8 @@ void check_sizes(std::span<const double> a, std::span<const double> b) {
 std::vector<double> log_spaced_times(double first_s, double last_s, std::size_t count) {
     if (!(first_s > 0) || !(last_s >= first_s) || !std::isfinite(last_s) || count == 0)
         throw std::invalid_argument("log_spaced_times: need 0 < first <= last and count >= 1");
-    if (count == 1) return {last_s};
+    if (count == 1)
+        return {last_s};
     std::vector<double> t(count);
     const double log_ratio = std::log(last_s / first_s);
     for (std::size_t k = 0; k < count; ++k)
@@ -37,7 +40,8 @@ LogLogFit fit_loglog(std::span<const double> time_s, std::span<const double> err
     double sx = 0, sy = 0, sxx = 0, sxy = 0;
     std::size_t n = 0;
     for (std::size_t i = 0; i < time_s.size(); ++i) {
-        if (!usable(time_s[i], error[i])) continue;
+        if (!usable(time_s[i], error[i]))
+            continue;
         const double x = std::log10(time_s[i]), y = std::log10(error[i]);
         sx += x;
         sy += y;
@@ -47,10 +51,12 @@ LogLogFit fit_loglog(std::span<const double> time_s, std::span<const double> err
     }
     LogLogFit fit;
     fit.points = n;
-    if (n < 2) return fit;
+    if (n < 2)
+        return fit;
     const double denom = double(n) * sxx - sx * sx;
     // All times equal (to rounding): no slope.
-    if (!(std::abs(denom) > 1e-12 * std::max(1.0, double(n) * sxx))) return fit;
+    if (!(std::abs(denom) > 1e-12 * std::max(1.0, double(n) * sxx)))
+        return fit;
     fit.slope = (double(n) * sxy - sx * sy) / denom;
     fit.intercept = (sy - fit.slope * sx) / double(n);
     fit.valid = true;
@@ -61,12 +67,14 @@ Crossing time_to_reach(std::span<const double> time_s, std::span<const double> e
                        double level) {
     check_sizes(time_s, error);
     Crossing c;
-    if (!(level > 0)) return c;
+    if (!(level > 0))
+        return c;
     bool have_prev = false;
     double t_prev = 0, e_prev = 0;
     for (std::size_t i = 0; i < time_s.size(); ++i) {
         const double t = time_s[i], e = error[i];
-        if (!usable(t, e)) continue;
+        if (!usable(t, e))
+            continue;
         if (e <= level) {
             if (!have_prev) {
                 c.kind = Crossing::Kind::before_first;

@@ -46,7 +46,6 @@ struct Crossing {
 /// The first time the curve (time_s ascending, errors per snapshot) reaches `level` (> 0):
 /// the first snapshot i with error[i] <= level, log-log interpolated against snapshot i - 1.
 /// Points with non-positive or non-finite values are skipped. Sizes must match. Pure.
-Crossing time_to_reach(std::span<const double> time_s, std::span<const double> error,
-                       double level);
+Crossing time_to_reach(std::span<const double> time_s, std::span<const double> error, double level);
 
 }  // namespace tessera::sampling

@@ -10,6 +10,7 @@
 #include <limits>
 #include <sstream>
 
+#include "render_test_util.h"
 #include "renderer/converge.h"
 #include "renderer/image_io.h"
 #include "renderer/reference.h"
@@ -24,18 +25,7 @@ namespace {
 
 // A tiny scene: a diffuse quad lit by a quad area light, its floor from an included file and
 // a texture image next to it (both must count in the content hash).
-const char *kScene = R"(LookAt 0 0 -3  0 0 0  0 1 0
-Camera "perspective" "float fov" [ 45 ]
-Film "rgb" "integer xresolution" [ 12 ] "integer yresolution" [ 8 ]
-Sampler "zsobol" "integer pixelsamples" [ 4 ]
-WorldBegin
-AttributeBegin
-  AreaLightSource "diffuse" "rgb L" [ 4 4 4 ]
-  Shape "trianglemesh" "point3 P" [ -0.5 1 -0.5  0.5 1 -0.5  0.5 1 0.5  -0.5 1 0.5 ]
-      "integer indices" [ 0 1 2  0 2 3 ]
-AttributeEnd
-Include "parts/floor.pbrt"
-)";
+const std::string kScene = test::tiny_lit_scene_header(12, 8) + "Include \"parts/floor.pbrt\"\n";
 const char *kFloor = R"(Texture "t" "spectrum" "imagemap" "string filename" [ "tex.pfm" ]
 Material "diffuse" "texture reflectance" "t"
 Shape "trianglemesh" "point3 P" [ -1 -1 1  1 -1 1  1 1 1  -1 1 1 ]
@@ -43,8 +33,7 @@ Shape "trianglemesh" "point3 P" [ -1 -1 1  1 -1 1  1 1 1  -1 1 1 ]
 )";
 
 // A w x h RGB PFM with every value `v` except pixel (bx, by), which gets `bad`.
-void write_pfm(const fs::path &p, int w, int h, float v, int bx = -1, int by = -1,
-               float bad = 0) {
+void write_pfm(const fs::path &p, int w, int h, float v, int bx = -1, int by = -1, float bad = 0) {
     fs::create_directories(p.parent_path());
     std::ofstream f(p, std::ios::binary);
     f << "PF\n" << w << " " << h << "\n-1.0\n";
@@ -99,8 +88,7 @@ TEST_CASE("metrics of a snapshot against hand-computed values (MSE, relMSE, RMSE
     CHECK(m.rel_mse.channel[0] == doctest::Approx(0.25 / 1.01 / 2));
     CHECK(m.rel_mse.channel[1] == doctest::Approx(1.0 / 4.01 / 2));
     CHECK(m.rel_mse.channel[2] == doctest::Approx(0.0625 / 0.26 / 2));
-    CHECK(m.rel_mse.total ==
-          doctest::Approx((0.25 / 1.01 + 1.0 / 4.01 + 0.0625 / 0.26) / 6));
+    CHECK(m.rel_mse.total == doctest::Approx((0.25 / 1.01 + 1.0 / 4.01 + 0.0625 / 0.26) / 6));
     CHECK(m.rmse.channel[1] == doctest::Approx(std::sqrt(0.5)));
     CHECK(m.rmse.total == doctest::Approx(std::sqrt(0.21875)));
     CHECK(m.psnr.total == doctest::Approx(10 * std::log10(1 / 0.21875)));
@@ -123,10 +111,12 @@ TEST_CASE("snapshots are log-spaced from the first time to the budget") {
     REQUIRE(t.size() == 5);
     CHECK(t.front() == 0.5);
     CHECK(t.back() == 8.0);  // exactly the budget
-    for (size_t i = 0; i + 1 < t.size(); ++i) CHECK(t[i + 1] / t[i] == doctest::Approx(2.0));
+    for (size_t i = 0; i + 1 < t.size(); ++i)
+        CHECK(t[i + 1] / t[i] == doctest::Approx(2.0));
     std::vector<double> u = sampling::log_spaced_times(0.1, 60, 8);
     const double ratio = std::pow(600.0, 1.0 / 7);
-    for (size_t i = 0; i + 1 < u.size(); ++i) CHECK(u[i + 1] / u[i] == doctest::Approx(ratio));
+    for (size_t i = 0; i + 1 < u.size(); ++i)
+        CHECK(u[i + 1] / u[i] == doctest::Approx(ratio));
     CHECK(sampling::log_spaced_times(0.2, 3, 1) == std::vector<double>{3});
     CHECK(sampling::log_spaced_times(2, 2, 3) == std::vector<double>{2, 2, 2});
     CHECK_THROWS_AS(sampling::log_spaced_times(0, 1, 3), std::invalid_argument);
@@ -136,7 +126,8 @@ TEST_CASE("snapshots are log-spaced from the first time to the budget") {
 
 TEST_CASE("log-log fit of a power law; unusable points are skipped") {
     std::vector<double> t{0.5, 1, 2, 4, 8, 16}, e;
-    for (double x : t) e.push_back(3.0 / x);  // MSE ~ 1/t
+    for (double x : t)
+        e.push_back(3.0 / x);  // MSE ~ 1/t
     e[0] = std::numeric_limits<double>::quiet_NaN();
     sampling::LogLogFit f = sampling::fit_loglog(t, e);
     CHECK(f.valid);
@@ -195,14 +186,15 @@ TEST_CASE("headline levels, table and CSV of a result") {
                 t.push_back(x.time_s);
                 e.push_back(x.metrics.rel_mse.total);
             }
-        for (double l : r.levels) r.samplers[i].crossings.push_back(sampling::time_to_reach(t, e, l));
+        for (double l : r.levels)
+            r.samplers[i].crossings.push_back(sampling::time_to_reach(t, e, l));
     }
     std::string table = format_headline(r);
     CAPTURE(table);
     CHECK(table.find("relMSE") != std::string::npos);
     CHECK(table.find("E=0.125") != std::string::npos);
     CHECK(table.find("2.00x") != std::string::npos);  // adaptive: half the time
-    CHECK(table.find("<=1") != std::string::npos);     // adaptive is below 0.5 at t = 1
+    CHECK(table.find("<=1") != std::string::npos);    // adaptive is below 0.5 at t = 1
 
     std::string csv = convergence_csv(r);
     std::istringstream is(csv);

@@ -10,6 +10,7 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
+#include "render_test_util.h"
 #include "renderer/converge.h"
 #include "test_helpers.h"
 
@@ -18,16 +19,7 @@ namespace fs = std::filesystem;
 
 namespace {
 
-const char *kScene = R"(LookAt 0 0 -3  0 0 0  0 1 0
-Camera "perspective" "float fov" [ 45 ]
-Film "rgb" "integer xresolution" [ 24 ] "integer yresolution" [ 16 ]
-Sampler "zsobol" "integer pixelsamples" [ 4 ]
-WorldBegin
-AttributeBegin
-  AreaLightSource "diffuse" "rgb L" [ 4 4 4 ]
-  Shape "trianglemesh" "point3 P" [ -0.5 1 -0.5  0.5 1 -0.5  0.5 1 0.5  -0.5 1 0.5 ]
-      "integer indices" [ 0 1 2  0 2 3 ]
-AttributeEnd
+const std::string kScene = test::tiny_lit_scene_header(24, 16) + R"(
 Material "diffuse" "rgb reflectance" [ 0.5 0.5 0.5 ]
 Shape "trianglemesh" "point3 P" [ -1 -1 1  1 -1 1  1 1 1  -1 1 1 ]
     "integer indices" [ 0 1 2  0 2 3 ]
@@ -109,7 +101,8 @@ TEST_CASE("converge writes CSV and JSON rows per sampler and snapshot, with imag
         uint64_t last_samples = 0;
         uint32_t k = 0;
         for (const nlohmann::json &row : rows) {
-            if (row["sampler_index"] != s) continue;
+            if (row["sampler_index"] != s)
+                continue;
             CHECK(row["snapshot"] == k++);
             CHECK(row["time_s"].get<double>() > last_t);
             CHECK(row["samples"].get<uint64_t>() >= last_samples);
@@ -132,7 +125,8 @@ TEST_CASE("converge writes CSV and JSON rows per sampler and snapshot, with imag
     const ConvergenceRow *first = nullptr, *last = nullptr;
     for (const ConvergenceRow &x : r.rows)
         if (x.sampler == 0 && x.coverage >= 1) {
-            if (!first) first = &x;
+            if (!first)
+                first = &x;
             last = &x;
         }
     REQUIRE(first);
@@ -142,7 +136,8 @@ TEST_CASE("converge writes CSV and JSON rows per sampler and snapshot, with imag
     std::ifstream csv(out / "convergence.csv");
     std::string line;
     size_t lines = 0;
-    while (std::getline(csv, line)) ++lines;
+    while (std::getline(csv, line))
+        ++lines;
     CHECK(lines == rows.size() + 1);
 
     // A second run reuses the cached reference and gives the same reference noise estimate.

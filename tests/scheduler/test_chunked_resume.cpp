@@ -20,7 +20,8 @@ namespace {
 uint32_t min_count(const sampling::Film &film) {
     uint32_t m = UINT32_MAX;
     for (uint32_t y = 0; y < film.height(); ++y)
-        for (uint32_t x = 0; x < film.width(); ++x) m = std::min(m, film.sample_count(x, y));
+        for (uint32_t x = 0; x < film.width(); ++x)
+            m = std::min(m, film.sample_count(x, y));
     return m;
 }
 
