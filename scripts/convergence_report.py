@@ -393,9 +393,11 @@ def write_report(run_dirs, out_dir, title):
                  "<p class=note>time to reach the lowest headline error level of each scene; "
                  "speed-up against the first sampler of the scene.</p>", summary_html(runs)]
     for data in runs:
-        heading = os.path.basename(os.path.normpath(data["dir"]))
-        if len(runs) == 1:
-            heading = os.path.basename(data["scene"]) + " — " + heading
+        # The run folder's name (the suite names them after the scenes), and the scene file.
+        scene = os.path.normpath(data["scene"])
+        heading = (os.path.basename(os.path.normpath(data["dir"])) + ": "
+                   + os.path.join(os.path.basename(os.path.dirname(scene)),
+                                  os.path.basename(scene)))
         body.append(run_section(np, plt, colors, data, out_dir, heading))
     page = (f"<!DOCTYPE html><html><head><meta charset='utf-8'><title>{esc(title)}</title>"
             f"<style>{CSS}</style></head><body><h1>{esc(title)}</h1>\n"
