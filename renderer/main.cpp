@@ -39,9 +39,12 @@ void add_converge_command(CLI::App &app, ConvergeCli &c) {
     CLI::App *cmd = c.command;
     cmd->add_option("scene", o.scene, "Scene file")->required();
     cmd->add_option("-o,--output", o.output_dir, "Output folder (created if missing)")->required();
+    // Vector options: one value per occurrence (repeat the flag), so that a positional
+    // argument after them is not swallowed.
     cmd->add_option("--sampler", o.samplers,
                     "Sampler to run, repeatable: uniform | adaptive[:error=E,min-spp=N,...] "
-                    "(default: uniform and adaptive)");
+                    "(default: uniform and adaptive)")
+        ->allow_extra_args(false);  // one value per --sampler: the scene may follow
     cmd->add_option("--time", o.time_s, "Wall-clock budget per sampler, seconds")
         ->required()
         ->check(CLI::PositiveNumber);
@@ -67,7 +70,8 @@ void add_converge_command(CLI::App &app, ConvergeCli &c) {
     cmd->add_option("--metric", o.metric,
                     "Error of the headline table: mse | relmse | rmse | mae (default relmse)");
     cmd->add_option("--target-error", o.target_errors,
-                    "Error level(s) of the headline table (default: from the curves)");
+                    "Error level(s) of the headline table, repeatable (default: from the curves)")
+        ->allow_extra_args(false);
     cmd->add_flag("--no-report", [&o](int64_t) { o.report = false; },
                   "Do not run scripts/convergence_report.py (report.html)");
     cmd->add_option("--report-script", o.report_script, "Report script to run instead");

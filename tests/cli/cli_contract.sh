@@ -299,7 +299,8 @@ converge_cache)
     ;;
 converge_missing_reference)
     write_good_scene scene.pbrt
-    run converge scene.pbrt --reference nope.exr --time 1 -o out --no-report
+    # --sampler before the scene takes one value: the scene is still the positional argument.
+    run converge --sampler uniform scene.pbrt --reference nope.exr --time 1 -o out --no-report
     expect_rc 2
     expect_stderr_line '^nope\.exr:0: reference image not found'
     [[ ! -e out ]] || fail "the output folder was created for a bad reference"
