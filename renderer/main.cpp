@@ -44,7 +44,7 @@ void add_converge_command(CLI::App &app, ConvergeCli &c) {
     cmd->add_option("--sampler", o.samplers,
                     "Sampler to run, repeatable: uniform | adaptive[:error=E,min-spp=N,...] "
                     "(default: uniform and adaptive)")
-        ->allow_extra_args(false);  // one value per --sampler: the scene may follow
+        ->allow_extra_args(false);
     cmd->add_option("--time", o.time_s, "Wall-clock budget per sampler, seconds")
         ->required()
         ->check(CLI::PositiveNumber);

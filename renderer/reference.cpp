@@ -183,7 +183,8 @@ std::string default_cache_dir() {
 
 std::string reference_key(const std::string &scene_hash, const ReferenceSettings &s) {
     std::ostringstream os;
-    os << "tessera-reference v1\nscene " << scene_hash << "\nresolution " << s.width << "x"
+    // v2: the mean of two independent half renders (v1: one render, half-buffer variance).
+    os << "tessera-reference v2\nscene " << scene_hash << "\nresolution " << s.width << "x"
        << s.height << "\nspp " << s.spp << "\nmax_depth " << s.max_depth << "\nseed " << s.seed
        << "\nversion " << TESSERA_VERSION << "\n";
     return hex128(os.str());
@@ -254,26 +255,29 @@ Reference load_reference(const std::string &path, uint32_t width, uint32_t heigh
 
 Reference render_reference(const Scene &scene, const ReferenceSettings &s) {
     auto t0 = std::chrono::steady_clock::now();
-    sampling::Film film(s.width, s.height);
-    PathIntegrator integrator(scene, s.seed, s.max_depth);
-    SamplerSpec uniform;
-    uniform.name = "uniform";
-    sched::AdaptiveOptions o = scheduler_options(scene, uniform, s.threads, s.quiet);
-    o.max_spp = std::max(1u, s.spp);
-    o.min_spp = std::min(o.min_spp, o.max_spp);
-    o.seed = s.seed;
-    o.deterministic = true;
-    sched::AdaptiveScheduler scheduler(integrator, film, o);
-    scheduler.render(nullptr);
-
+    // Two independent halves (reference.h, "Noise floor"), each uniform and deterministic.
+    const uint32_t half_spp = std::max(1u, (s.spp + 1) / 2);
+    std::vector<float> halves[2];
+    for (uint32_t k = 0; k < 2; ++k) {
+        sampling::Film film(s.width, s.height);
+        PathIntegrator integrator(scene, s.seed + k, s.max_depth);
+        SamplerSpec uniform;
+        uniform.name = "uniform";
+        sched::AdaptiveOptions o = scheduler_options(scene, uniform, s.threads, s.quiet);
+        o.max_spp = half_spp;
+        o.min_spp = std::min(o.min_spp, o.max_spp);
+        o.seed = s.seed + k;
+        o.deterministic = true;
+        sched::AdaptiveScheduler(integrator, film, o).render(nullptr);
+        halves[k] = film.beauty_rgb();
+    }
     Reference ref;
-    ref.image = sampling::RgbImage(film.width(), film.height(), film.beauty_rgb());
-    // Variance of each mean from the half buffer: (I - A)^2 (file comment of reference.h).
-    std::vector<float> half = film.half_rgb();
-    ref.variance.resize(half.size());
-    for (size_t i = 0; i < half.size(); ++i) {
-        const double d = double(ref.image.data[i]) - double(half[i]);
-        ref.variance[i] = float(d * d);
+    ref.image = sampling::RgbImage(s.width, s.height);
+    ref.variance.resize(halves[0].size());
+    for (size_t i = 0; i < halves[0].size(); ++i) {
+        const double a = halves[0][i], b = halves[1][i];
+        ref.image.data[i] = float(0.5 * (a + b));
+        ref.variance[i] = float(0.25 * (a - b) * (a - b));
     }
     ref.rendered = true;
     ref.render_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
@@ -319,6 +323,7 @@ Reference cached_reference(const Scene &scene, const std::string &scene_path,
     j["spp"] = s.spp;
     j["max_depth"] = s.max_depth;
     j["seed"] = s.seed;
+    j["method"] = "mean of two uniform renders of spp/2, seeds seed and seed+1";
     j["version"] = TESSERA_VERSION;
     j["render_s"] = ref.render_s;
     j["dependencies"] = scene_dependencies(scene_path);

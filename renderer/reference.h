@@ -1,20 +1,22 @@
 // Reference images for `tessera converge`: reading and checking a given one, or rendering one
 // (uniform, deterministic, many samples) and caching it by scene content and settings.
 //
-// Cache. A reference is stored as <cache_dir>/ref-<key>.exr (the film's layers plus
-// `variance.{R,G,B}`, below) with a readable ref-<key>.json beside it. The key hashes the scene's
-// content hash (scene_content_hash), the resolution, samples per pixel, maximum depth, sequence
-// seed and the Tessera version; anything else that changes the picture lives in the scene files.
-// A reference whose files are unchanged is read back; a changed scene, include, mesh, texture or
-// setting gives a new key and a new render. Writes are atomic (image_io.h), so an interrupted
-// render leaves no entry behind.
+// Cache. A reference is stored as <cache_dir>/ref-<key>.exr (R, G, B plus `variance.{R,G,B}`,
+// below) with a readable ref-<key>.json beside it. The key hashes the scene's content hash
+// (scene_content_hash), the resolution, samples per pixel, maximum depth, sequence seed, the
+// reference method and the Tessera version; anything else that changes the picture lives in the
+// scene files. A reference whose files are unchanged is read back; a changed scene, include,
+// mesh, texture or setting gives a new key and a new render. Writes are atomic (image_io.h), so
+// an interrupted render leaves no entry behind.
 //
 // Noise floor. A reference is itself a Monte Carlo estimate: E[MSE(test, ref)] = true MSE(test)
-// + mean Var(ref) when the two are independent (they are: the reference uses its own seed, see
-// reference_seed). Var(ref) per pixel is estimated from the film's half buffer (Dammertz et al.
-// 2010): with I the mean of all n samples and A the mean of the odd-index half,
-// E[(I - A)^2] = Var(I) for independent samples (an upper bound for stratified QMC ones). The
-// cached EXR keeps it as `variance.{R,G,B}`, and convergence plots draw its mean as a floor.
+// + mean Var(ref) when the two are independent (they are: the reference uses its own seeds, see
+// reference_seed). To estimate Var(ref) the reference is the mean of two renders of spp / 2
+// samples with independent scrambles (seeds `seed` and `seed` + 1): with R1, R2 their images,
+// E[(R1 - R2)^2] / 4 = Var((R1 + R2) / 2) per pixel, unbiased. (The film's half buffer would give
+// no such estimate: the even and odd samples of one Owen-scrambled Sobol sequence are negatively
+// correlated, and (I - A)^2 overestimated the floor tenfold in a test.) The cached EXR keeps the
+// estimate as `variance.{R,G,B}`, and the convergence plots draw its mean as a floor.
 #pragma once
 
 #include <cstdint>
@@ -52,9 +54,9 @@ inline uint32_t reference_seed(uint32_t seed) {
 /// What a reference render is made of (the cache key covers all but threads and quiet).
 struct ReferenceSettings {
     uint32_t width = 0, height = 0;
-    uint32_t spp = 4096;   ///< uniform samples per pixel
+    uint32_t spp = 4096;   ///< uniform samples per pixel (two renders of spp / 2, rounded up)
     int max_depth = 5;     ///< path depth
-    uint32_t seed = 0;     ///< sequence seed (reference_seed of the test renders' seed)
+    uint32_t seed = 0;     ///< seed of the first half (reference_seed of the test renders' seed)
     uint32_t threads = 0;  ///< worker threads (0: all cores); the image does not depend on it
     bool quiet = false;    ///< no progress bar
 };
@@ -92,7 +94,8 @@ Reference load_reference(const std::string &path, uint32_t width, uint32_t heigh
 Reference cached_reference(const Scene &scene, const std::string &scene_path,
                            const ReferenceSettings &settings, const std::string &cache_dir);
 
-/// Renders a reference into memory (what cached_reference does on a miss; tests).
+/// Renders a reference into memory (what cached_reference does on a miss; tests): the mean of
+/// two independent half renders and the variance estimate from their difference.
 Reference render_reference(const Scene &scene, const ReferenceSettings &settings);
 
 }  // namespace tessera
