@@ -45,12 +45,6 @@ std::string make_slug(size_t index, const std::string &spec) {
     return s;
 }
 
-// The final state of one sampler's film, written at the end.
-struct FinalImages {
-    sampling::RgbImage beauty;
-    std::vector<float> spp;
-};
-
 // Writes a single-channel little-endian PFM ("Pf"), rows bottom to top as the format says.
 void write_pfm(const std::string &path, uint32_t w, uint32_t h, const std::vector<float> &v) {
     write_atomically(path, [&](const std::string &tmp) {
@@ -64,76 +58,80 @@ void write_pfm(const std::string &path, uint32_t w, uint32_t h, const std::vecto
     });
 }
 
-// Renders one sampler for the schedule's times; returns its rows (sampler index unset) and
-// final images.
-std::vector<ConvergenceRow> run_sampler(const Scene &scene, const SamplerSpec &spec,
-                                        const ConvergeOptions &opt,
-                                        const std::vector<double> &times,
-                                        const sampling::RgbImage &ref, const std::string &label,
-                                        FinalImages &final_images) {
-    const uint32_t w = uint32_t(scene.settings.width), h = uint32_t(scene.settings.height);
-    const double pixels = double(w) * double(h);
-    sampling::Film film(w, h);
-    PathIntegrator integrator(scene, scene.settings.seed, scene.settings.max_depth);
-    sched::AdaptiveOptions so = scheduler_options(scene, spec, opt.threads, true);
-    // Time is the budget: no sample cap unless --spp gives one.
-    so.max_spp = opt.overrides.spp ? uint32_t(*opt.overrides.spp) : 0;
-    so.min_spp = so.max_spp ? std::min(so.min_spp, so.max_spp) : so.min_spp;
+// One sampler's progressive render, advanced snapshot by snapshot. The samplers' chunks are
+// interleaved (snapshot k of every sampler, then k + 1), so that a machine that slows down for a
+// while (other processes) costs every sampler alike instead of the one that happened to run.
+class SamplerRun {
+  public:
+    SamplerRun(const Scene &scene, const SamplerSpec &spec, const ConvergeOptions &opt)
+        : film_(uint32_t(scene.settings.width), uint32_t(scene.settings.height)),
+          integrator_(scene, scene.settings.seed, scene.settings.max_depth),
+          options_(scheduler_options(scene, spec, opt.threads, true)) {
+        // Time is the budget: no sample cap unless --spp gives one.
+        options_.max_spp = opt.overrides.spp ? uint32_t(*opt.overrides.spp) : 0;
+        if (options_.max_spp)
+            options_.min_spp = std::min(options_.min_spp, options_.max_spp);
+    }
 
-    std::vector<ConvergenceRow> rows;
-    double render_s = 0;
-    uint64_t samples = 0, rays = 0;
-    uint32_t passes = 0;
-    bool stopped = false;
-    for (size_t k = 0; k < times.size() && !stopped; ++k) {
-        const double remaining = times[k] - render_s;
-        if (remaining > 0) {
+    /// Renders until `target_s` seconds of render time in all (unless it stopped by itself),
+    /// then takes snapshot `k`: the row and, when `keep` or it stopped, the final images.
+    ConvergenceRow advance(double target_s, uint32_t k, bool keep, const sampling::RgbImage &ref) {
+        const double remaining = target_s - render_s_;
+        if (remaining > 0 && !stopped_) {
             auto t0 = Clock::now();
-            sched::AdaptiveOptions chunk = so;
+            sched::AdaptiveOptions chunk = options_;
             chunk.time_s = remaining;
             // Resume at the first pass some tile has not finished (AdaptiveStats::resume_pass).
-            chunk.start_pass = k == 0 ? -1 : int64_t(passes);
-            sched::AdaptiveScheduler scheduler(integrator, film, chunk);
-            sched::AdaptiveStats s = scheduler.render(nullptr);
-            render_s += seconds_since(t0);
-            samples += s.samples;
-            rays += s.rays;
-            passes = s.resume_pass;
+            chunk.start_pass = k == 0 ? -1 : int64_t(passes_);
+            sched::AdaptiveScheduler scheduler(integrator_, film_, chunk);
+            sched::AdaptiveStats st = scheduler.render(nullptr);
+            render_s_ += seconds_since(t0);
+            samples_ += st.samples;
+            rays_ += st.rays;
+            passes_ = st.resume_pass;
             // Neither time nor cancel stopped it: converged, or every pass up to --spp done.
-            stopped = !s.out_of_time;
+            stopped_ = !st.out_of_time;
         }
-        // The snapshot: copies of the mean image and the counts (timed, not in render_s).
+        // The snapshot: copies of the mean image and the counts (timed, not in render_s_).
+        const uint32_t w = film_.width(), h = film_.height();
+        const double pixels = double(w) * double(h);
         auto t_snap = Clock::now();
-        sampling::RgbImage img(w, h, film.beauty_rgb());
-        std::vector<float> spp = film.spp();
+        sampling::RgbImage img(w, h, film_.beauty_rgb());
+        std::vector<float> spp = film_.spp();
         ConvergenceRow row;
         row.snapshot_cost_s = seconds_since(t_snap);
-        row.snapshot = uint32_t(k);
-        row.target_time_s = times[k];
-        row.time_s = render_s;
-        row.samples = samples;
-        row.rays = rays;
-        row.passes = passes;
-        row.mean_spp = double(film.total_samples()) / pixels;
+        row.snapshot = k;
+        row.target_time_s = target_s;
+        row.time_s = render_s_;
+        row.samples = samples_;
+        row.rays = rays_;
+        row.passes = passes_;
+        row.mean_spp = double(film_.total_samples()) / pixels;
         row.coverage =
             double(std::count_if(spp.begin(), spp.end(), [](float v) { return v > 0; })) / pixels;
-        row.stopped = stopped;
+        row.stopped = stopped_;
         row.metrics = sampling::compare_images(img, ref, 1.0);
-        if (!opt.quiet)
-            std::fprintf(stderr,
-                         "tessera: %-28s snapshot %u/%zu  t %7.3f s  spp %8.1f  relMSE %.4g  "
-                         "MSE %.4g%s\n",
-                         label.c_str(), row.snapshot + 1, times.size(), row.time_s, row.mean_spp,
-                         row.metrics.rel_mse.total, row.metrics.mse.total,
-                         stopped ? "  (stopped: converged or --spp reached)" : "");
-        rows.push_back(row);
-        if (k + 1 == times.size() || stopped) {
-            final_images.beauty = std::move(img);
-            final_images.spp = std::move(spp);
+        if (keep || stopped_) {
+            final_beauty = std::move(img);
+            final_spp = std::move(spp);
         }
+        return row;
     }
-    return rows;
-}
+
+    bool stopped() const { return stopped_; }
+
+    sampling::RgbImage final_beauty;  ///< the last snapshot's mean image
+    std::vector<float> final_spp;     ///< and its samples per pixel
+
+  private:
+    sampling::Film film_;
+    PathIntegrator integrator_;
+    sched::AdaptiveOptions options_;
+    double render_s_ = 0;
+    uint64_t samples_ = 0, rays_ = 0;
+    uint32_t passes_ = 0;
+    bool stopped_ = false;
+};
 
 // Fits and crossing times of the usable rows (coverage 1) of sampler `i`.
 void summarise_sampler(ConvergeResult &r, size_t i) {
@@ -497,19 +495,38 @@ ConvergeResult run_converge(const ConvergeOptions &opt_in) {
 
     const double first = opt.first_snapshot_s > 0 ? opt.first_snapshot_s : opt.time_s / 32;
     r.snapshot_times = sampling::log_spaced_times(first, opt.time_s, opt.snapshots);
-    std::vector<FinalImages> finals(specs.size());
+    std::vector<std::unique_ptr<SamplerRun>> runs;
     for (size_t i = 0; i < specs.size(); ++i) {
         ConvergenceSampler s;
         s.spec = opt.samplers[i];
         s.description = specs[i].describe();
         s.slug = make_slug(i, s.spec);
         r.samplers.push_back(s);
-        std::vector<ConvergenceRow> rows =
-            run_sampler(*scene, specs[i], opt, r.snapshot_times, ref.image, s.spec, finals[i]);
-        for (ConvergenceRow &row : rows)
-            row.sampler = i;
-        r.rows.insert(r.rows.end(), rows.begin(), rows.end());
+        runs.push_back(std::make_unique<SamplerRun>(*scene, specs[i], opt));
     }
+    // Interleaved: snapshot k of every sampler before snapshot k + 1 of any (SamplerRun).
+    const size_t n = r.snapshot_times.size();
+    for (size_t k = 0; k < n; ++k) {
+        for (size_t i = 0; i < runs.size(); ++i) {
+            if (runs[i]->stopped())
+                continue;
+            ConvergenceRow row =
+                runs[i]->advance(r.snapshot_times[k], uint32_t(k), k + 1 == n, ref.image);
+            row.sampler = i;
+            if (!opt.quiet)
+                std::fprintf(stderr,
+                             "tessera: %-28s snapshot %zu/%zu  t %7.3f s  spp %8.1f  relMSE %.4g  "
+                             "MSE %.4g%s\n",
+                             r.samplers[i].spec.c_str(), k + 1, n, row.time_s, row.mean_spp,
+                             row.metrics.rel_mse.total, row.metrics.mse.total,
+                             row.stopped ? "  (stopped: converged or --spp reached)" : "");
+            r.rows.push_back(row);
+        }
+    }
+    // Rows per sampler, snapshots in order.
+    std::stable_sort(
+        r.rows.begin(), r.rows.end(),
+        [](const ConvergenceRow &a, const ConvergenceRow &b) { return a.sampler < b.sampler; });
     r.threads =
         opt.threads ? opt.threads : uint32_t(std::max(1u, std::thread::hardware_concurrency()));
     r.levels = opt.target_errors.empty() ? default_levels(r) : opt.target_errors;
@@ -526,12 +543,12 @@ ConvergeResult run_converge(const ConvergeOptions &opt_in) {
     std::vector<nlohmann::json> image_json;
     for (size_t i = 0; i < r.samplers.size(); ++i) {
         const std::string stem = r.samplers[i].slug;
-        const FinalImages &f = finals[i];
+        const SamplerRun &f = *runs[i];
         write_exr((images / (stem + ".exr")).string(), r.width, r.height,
-                  {ImageLayer{"", {"R", "G", "B"}, f.beauty.data, false},
-                   ImageLayer{"spp", {"Y"}, f.spp, true}});
-        write_png(images / (stem + ".png"), f.beauty);
-        write_pfm((images / (stem + ".spp.pfm")).string(), r.width, r.height, f.spp);
+                  {ImageLayer{"", {"R", "G", "B"}, f.final_beauty.data, false},
+                   ImageLayer{"spp", {"Y"}, f.final_spp, true}});
+        write_png(images / (stem + ".png"), f.final_beauty);
+        write_pfm((images / (stem + ".spp.pfm")).string(), r.width, r.height, f.final_spp);
         image_json.push_back({{"exr", "images/" + stem + ".exr"},
                               {"png", "images/" + stem + ".png"},
                               {"spp_pfm", "images/" + stem + ".spp.pfm"},

@@ -10,7 +10,9 @@
 // includes each restart's set-up (a few milliseconds: error snapshot and trees rebuilt from the
 // film) but not the snapshot copies, the metrics or any file output; the copies' cost is
 // measured and reported per snapshot (snapshot_cost_s). A sampler that stops by itself
-// (converged, or reached --spp) ends its curve there.
+// (converged, or reached --spp) ends its curve there. The samplers run interleaved, each with its
+// own film: snapshot k of every sampler, then snapshot k + 1, so that a machine that slows down
+// for a while (other processes) costs every sampler alike.
 //
 // Metrics per snapshot against the reference (sampling/image_metrics.h): MSE, relMSE, RMSE,
 // PSNR (peak 1) and MAE per channel and in total, plus mean spp, samples, rays, passes and

@@ -187,7 +187,7 @@ def plot_errors(np, plt, data, out_png):
                 ax.plot(xs, 10 ** fit["intercept"] * xs ** fit["slope"], ":", color=color, lw=1)
         floor = data["reference"].get("noise_" + key)
         if floor:
-            ax.axhline(floor, color="0.5", ls="--", lw=1, label="reference noise (est., upper bound)")
+            ax.axhline(floor, color="0.5", ls="--", lw=1, label="reference noise (estimate)")
         ax.set_xscale("log")
         ax.set_yscale("log")
         ax.set_xlabel("render time (s)")
