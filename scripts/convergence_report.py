@@ -208,14 +208,14 @@ def plot_crops(np, plt, data, out_png):
     imgs = [read_png(plt, os.path.join(run, s["images"]["png"])) for s in data["samplers"]]
     h, w = ref.shape[:2]
     size = max(8, min(h, w) // 4)
-    # Crop A: where the first sampler is worst; crop B: where the last one is worst (or the
-    # centre when that is the same window).
+    # Crop A: where the first sampler is worst; crop B: where the last one is worst outside
+    # crop A (the window may not overlap A by more than half its size).
     wins = []
     for img in (imgs[0], imgs[-1]):
-        win = worst_window(np, ((img - ref) ** 2).sum(axis=2), size)
-        if win in wins:
-            win = (max(0, h // 2 - size // 2), max(0, w // 2 - size // 2), win[2], win[3])
-        wins.append(win)
+        err = ((img - ref) ** 2).sum(axis=2)
+        for (y, x, sy, sx) in wins:
+            err[max(0, y - sy // 2):y + sy + sy // 2, max(0, x - sx // 2):x + sx + sx // 2] = 0
+        wins.append(worst_window(np, err, size))
     cols = [("reference", ref)] + [
         (f"{s['spec']}\n{s['final_time_s']:.3g} s", img) for s, img in zip(data["samplers"], imgs)]
     fig, axes = plt.subplots(3, len(cols), figsize=(2.6 * len(cols), 7.6), squeeze=False)
