@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <filesystem>
+#include <fstream>
 #include <stdexcept>
 #include <system_error>
 
@@ -90,6 +91,14 @@ void write_atomically(const std::string &path,
         fs::remove(tmp, ec);
         throw std::runtime_error(e.what());
     }
+}
+
+void write_text_atomically(const std::string &path, const std::string &text) {
+    write_atomically(path, [&](const std::string &tmp) {
+        std::ofstream f(tmp, std::ios::binary);
+        f << text;
+        if (!f) throw std::runtime_error(path + ": cannot write");
+    });
 }
 
 void write_exr(const std::string &path, uint32_t width, uint32_t height,

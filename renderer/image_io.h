@@ -82,4 +82,7 @@ std::string temp_path_for(const std::string &path);
 void write_atomically(const std::string &path,
                       const std::function<void(const std::string &temp_path)> &write);
 
+/// Writes `text` to `path` atomically (write_atomically). Throws std::runtime_error.
+void write_text_atomically(const std::string &path, const std::string &text);
+
 }  // namespace tessera

@@ -401,6 +401,7 @@ Param Parser::parse_param(Tokenizer &tok, const Token &decl, const std::string &
                     throw SceneError(p.loc, "spectrum \"" + s +
                                                 "\" is neither a named spectrum nor a readable "
                                                 "file");
+                if (!sensor) scene_.read_files.push_back(path);
                 if (!sensor) {
                     Tokenizer st(text, path);
                     while (std::optional<Token> t = st.next()) {
@@ -628,6 +629,7 @@ void Parser::parse(Tokenizer &tok, const std::string &dir, int depth) {
                     throw SceneError(loc, "cannot open " + d + " file \"" + name + "\"");
                 path = alt;
             }
+            scene_.read_files.push_back(path);
             Tokenizer sub(std::move(text), path);
             parse(sub, dir_of(path), depth + 1);
         } else if (d == "MakeNamedMaterial") {

@@ -271,11 +271,13 @@ RenderReport run_render(const RenderOptions &opt) {
             accumulate(rep.stats, s);
             rep.passes_total = s.first_pass + s.passes;
             rep.stats.passes = rep.passes_total;
-            so.start_pass = int64_t(rep.passes_total);
+            // The next chunk (and a checkpoint) resumes at the first pass some tile has not
+            // finished, not after the furthest quadrant's: the others would never catch up.
+            so.start_pass = int64_t(s.resume_pass);
             bool chunk_timeout = s.out_of_time && opt.checkpoint_every > 0 &&
                                  !(opt.time_s > 0 && seconds_since(t_render) >= opt.time_s);
             if (chunk_timeout) {
-                cs.passes = rep.passes_total;
+                cs.passes = uint32_t(so.start_pass);
                 cs.elapsed_s = elapsed_before + seconds_since(t_render);
                 write_checkpoint(checkpoint, film, cs);
                 rep.stats.out_of_time = false;
@@ -303,7 +305,7 @@ RenderReport run_render(const RenderOptions &opt) {
         write_rgb8(png, img.width, img.height, rgb8);
     }
     if (rep.stats.cancelled || !opt.checkpoint.empty()) {
-        cs.passes = rep.passes_total;
+        cs.passes = so.start_pass >= 0 ? uint32_t(so.start_pass) : rep.passes_total;
         cs.elapsed_s = elapsed_before + seconds_since(t_render);
         write_checkpoint(checkpoint, film, cs);
         rep.checkpoint_path = checkpoint;

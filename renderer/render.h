@@ -16,7 +16,7 @@
 namespace tessera {
 
 /// Default region error target of the adaptive sampler (Dammertz e_b; see
-/// sampling/region_tree.h). Chosen with the benchmark in scripts/bench_adaptive.sh.
+/// sampling/region_tree.h). Chosen with scripts/bench_adaptive.py (now `tessera converge`).
 inline constexpr double kDefaultErrorTarget = 0.001;
 
 /// A sampler selection: any registered plugin (sampling/pixel_sampler.h; `tessera samplers`

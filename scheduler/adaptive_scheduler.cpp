@@ -750,6 +750,7 @@ AdaptiveStats AdaptiveScheduler::render(const std::atomic<bool> *cancel) {
             ++p0;
     }
     stats.first_pass = uint32_t(std::min<uint64_t>(p0, std::numeric_limits<uint32_t>::max()));
+    stats.resume_pass = stats.first_pass;
     ctx.first_pass = p0;
     ctx.pass_end = n_passes;
     const size_t n_tiles = tiles_.size();
@@ -866,6 +867,12 @@ AdaptiveStats AdaptiveScheduler::render(const std::atomic<bool> *cancel) {
         }
         main_ws.merge_into(ctx);
         ctx.progress->finish();
+        // tile_done_[t] is the next pass tile t needs (all workers have joined).
+        uint32_t resume = std::numeric_limits<uint32_t>::max();
+        for (size_t t = 0; t < n_tiles; ++t)
+            resume = std::min(resume, tile_done_[t].load(std::memory_order_acquire));
+        if (n_tiles > 0)
+            stats.resume_pass = resume;
     }
 
     const AdaptiveStats &t = ctx.totals;

@@ -129,6 +129,12 @@ struct AdaptiveStats {
     double wall_s = 0;            ///< wall time of render(), seconds
     uint32_t passes = 0;          ///< completed passes (the maximum over the quadrants)
     uint32_t first_pass = 0;      ///< absolute index of the first pass this call rendered
+    /// Absolute index of the first pass that some tile has not completed: where a later render()
+    /// of the same film must resume (AdaptiveOptions::start_pass). first_pass + passes when the
+    /// passes ran to completion; lower when the time budget or a cancel stopped a pass part-way
+    /// in the barrier-free mode (`passes` counts the furthest quadrant, whose tiles come first
+    /// in Morton order: resuming there would leave the other quadrants' pixels behind).
+    uint32_t resume_pass = 0;
     uint32_t threads = 0;         ///< worker threads
     bool cancelled = false;       ///< stopped by the cancel flag
     bool out_of_time = false;     ///< stopped by the time budget
