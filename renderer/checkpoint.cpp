@@ -2,6 +2,8 @@
 
 #include <OpenImageIO/imageio.h>
 
+#include <algorithm>
+#include <cmath>
 #include <cstring>
 #include <stdexcept>
 #include <vector>
@@ -157,12 +159,37 @@ CheckpointState read_checkpoint(const std::string &path, sampling::Film &film) {
         for (size_t c = 0; c < layout.size(); ++c)
             w[c] = file_words[i * size_t(spec.nchannels) + size_t(file_index[c])];
         unpack(w.data(), px[i]);
+        // A checkpoint is trusted to resume hours of work: reject values no render writes
+        // rather than carry NaN or impossible counts into the image.
+        const PixelData &q = px[i];
+        bool ok = q.accepted <= q.taken && q.half_accepted <= q.accepted && q.hits <= q.accepted;
+        for (int c = 0; c < 3; ++c) ok = ok && std::isfinite(q.sum[c]) && std::isfinite(q.half_sum[c]);
+        if (!ok)
+            throw SceneError(path + ":0: checkpoint pixel (" + std::to_string(i % size_t(spec.width)) +
+                             ", " + std::to_string(i / size_t(spec.width)) +
+                             ") holds impossible values (damaged file)");
     }
     CheckpointState st;
-    st.passes = uint32_t(spec.get_int_attribute("tessera:passes", 0));
-    st.seed = uint32_t(std::stoul(spec.get_string_attribute("tessera:seed", "0")));
-    st.elapsed_s = std::stod(spec.get_string_attribute("tessera:elapsed_s", "0"));
-    uint64_t nan = std::stoull(spec.get_string_attribute("tessera:nan_count", "0"));
+    // The metadata is text: a damaged or hand-edited file must give a SceneError, not the
+    // std::invalid_argument of std::stoul.
+    auto number = [&](const char *key) {
+        std::string v = spec.get_string_attribute(key, "0");
+        try {
+            size_t pos = 0;
+            double d = std::stod(v, &pos);
+            if (pos == v.size() && std::isfinite(d) && d >= 0) return d;
+        } catch (const std::exception &) {
+        }
+        throw SceneError(path + ":0: checkpoint attribute " + key + " is not a number: \"" + v +
+                         "\"");
+    };
+    st.passes = uint32_t(std::max(0, spec.get_int_attribute("tessera:passes", 0)));
+    double seed = number("tessera:seed"), nan_d = number("tessera:nan_count");
+    if (seed > double(UINT32_MAX))
+        throw SceneError(path + ":0: checkpoint seed is out of range");
+    st.seed = uint32_t(seed);
+    st.elapsed_s = number("tessera:elapsed_s");
+    uint64_t nan = uint64_t(std::min(nan_d, 1e18));
     st.scene = spec.get_string_attribute("tessera:scene");
     st.settings = spec.get_string_attribute("tessera:settings");
     film.restore(std::move(px), nan);

@@ -2,13 +2,21 @@
 #include "renderer/image_io.h"
 
 #include <OpenImageIO/imageio.h>
+#include <fcntl.h>
+#include <signal.h>
+#include <sys/statvfs.h>
 #include <unistd.h>
 
 #include <algorithm>
+#include <cerrno>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <stdexcept>
 #include <system_error>
+
+#include "renderer/limits.h"
+#include "renderer/scene_desc.h"
 
 namespace tessera {
 namespace {
@@ -80,16 +88,109 @@ std::string temp_path_for(const std::string &path) {
     return path + ".tmp-" + std::to_string(long(::getpid()));
 }
 
+namespace {
+
+/// fsync of a file or directory by name; false (errno set) on failure.
+bool sync_path(const std::string &path, bool directory) {
+    int fd = ::open(path.c_str(), directory ? (O_RDONLY | O_DIRECTORY) : O_RDONLY);
+    if (fd < 0) return false;
+    bool ok = ::fsync(fd) == 0;
+    int saved = errno;
+    ::close(fd);
+    errno = saved;
+    return ok;
+}
+
+/// Removes "<name>.tmp-<pid>" files next to `path` whose process no longer runs (left by a
+/// kill -9 or a crash). Best effort: errors are ignored.
+void remove_stale_temporaries(const fs::path &path) {
+    std::error_code ec;
+    const fs::path dir = path.has_parent_path() ? path.parent_path() : fs::path(".");
+    const std::string prefix = path.filename().string() + ".tmp-";
+    for (fs::directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec)) {
+        const std::string name = it->path().filename().string();
+        if (name.rfind(prefix, 0) != 0) continue;
+        const std::string digits = name.substr(prefix.size());
+        if (digits.empty() || digits.size() > 9 ||
+            digits.find_first_not_of("0123456789") != std::string::npos)
+            continue;
+        const long pid = std::stol(digits);
+        if (pid == long(::getpid())) continue;
+        if (::kill(pid_t(pid), 0) != 0 && errno == ESRCH) fs::remove(it->path(), ec);
+    }
+}
+
+}  // namespace
+
 void write_atomically(const std::string &path,
                       const std::function<void(const std::string &temp_path)> &write) {
-    const std::string tmp = temp_path_for(path);
     std::error_code ec;
+    // Follow a link to what it names (the rename would otherwise replace the link itself).
+    std::string target = path;
+    if (fs::is_symlink(fs::symlink_status(path, ec))) {
+        fs::path resolved = fs::weakly_canonical(path, ec);
+        if (!ec) target = resolved.string();
+    }
+    fs::file_status st = fs::status(target, ec);
+    if (fs::is_directory(st)) throw OutputError(path + ": is a directory");
+    if (fs::exists(st) && !fs::is_regular_file(st)) {
+        // A device or FIFO (/dev/stdout, /dev/null): no temporary can be renamed onto it.
+        try {
+            write(target);
+        } catch (const std::exception &e) {
+            throw OutputError(e.what());
+        }
+        return;
+    }
+    const std::string tmp = temp_path_for(target);
     try {
         write(tmp);
-        fs::rename(tmp, path);
+        // The data must be on disk before the rename makes it the file: otherwise a power cut
+        // can leave the new name pointing at an empty or partial file.
+        if (!sync_path(tmp, false))
+            throw std::runtime_error(path + ": cannot sync to disk: " + std::strerror(errno));
+        fs::rename(tmp, target);
     } catch (const std::exception &e) {
         fs::remove(tmp, ec);
-        throw std::runtime_error(e.what());
+        throw OutputError(e.what());
+    }
+    const fs::path t(target);
+    sync_path(t.has_parent_path() ? t.parent_path().string() : ".", true);
+    remove_stale_temporaries(t);
+}
+
+void check_output_path(const std::string &path, const std::string &what,
+                       uint64_t expected_bytes) {
+    auto fail = [&](const std::string &msg) {
+        throw SceneError(FileLoc{path, 0}, what + ": " + msg);
+    };
+    std::error_code ec;
+    fs::file_status st = fs::status(path, ec);
+    if (fs::is_directory(st)) fail("is a directory, not a file");
+    if (fs::exists(st) && !fs::is_regular_file(st)) return;  // a device or FIFO: written as is
+    std::string target = path;
+    if (fs::is_symlink(fs::symlink_status(path, ec))) {
+        fs::path resolved = fs::weakly_canonical(path, ec);
+        if (!ec) target = resolved.string();
+    }
+    const fs::path t(target);
+    const fs::path dir = t.has_parent_path() ? t.parent_path() : fs::path(".");
+    if (!fs::is_directory(dir, ec)) fail("the folder " + dir.string() + " does not exist");
+    // A probe file: permissions, read-only file systems and a full inode table all show here,
+    // for root too (which access(2) would not tell).
+    const std::string probe = (dir / (".tessera-probe-" + std::to_string(long(::getpid())))).string();
+    int fd = ::open(probe.c_str(), O_WRONLY | O_CREAT | O_EXCL, 0600);
+    if (fd < 0) fail(std::string("cannot create files in ") + dir.string() + ": " +
+                     std::strerror(errno));
+    ::close(fd);
+    ::unlink(probe.c_str());
+    struct statvfs vfs {};
+    if (expected_bytes > 0 && ::statvfs(dir.c_str(), &vfs) == 0) {
+        uint64_t free_bytes = uint64_t(vfs.f_bavail) * uint64_t(vfs.f_frsize);
+        if (free_bytes < expected_bytes)
+            warn(FileLoc{path, 0}, what + ": only " + format_bytes(free_bytes) + " free in " +
+                                       dir.string() + "; the file may need up to " +
+                                       format_bytes(expected_bytes));
     }
 }
 

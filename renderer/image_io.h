@@ -11,14 +11,20 @@
 // Colour channels may be written as half (option); depth.Z and spp.Y are always 32-bit float
 // (half keeps only 11 significant bits). Compression: ZIP by default.
 //
-// Atomic writes: every writer here writes "<path>.tmp-<pid>" in the target's directory and
-// renames it onto <path> (std::filesystem::rename, atomic on POSIX within one filesystem). On
-// any failure the temporary is removed and std::runtime_error is thrown, so <path> is either
-// the old file or the complete new one, never a partial image.
+// Atomic writes: every writer here writes "<path>.tmp-<pid>" in the target's directory, flushes
+// it to disk (fsync), and renames it onto <path> (std::filesystem::rename, atomic on POSIX
+// within one filesystem), then syncs the directory. On any failure the temporary is removed
+// and std::runtime_error is thrown, so <path> is either the old file or the complete new one,
+// never a partial image -- also after a kill -9 or a power cut. A temporary left behind by a
+// killed process (its pid no longer running) is removed by the next successful write of the
+// same path. Paths that are not regular files are handled as what they are: a symbolic link
+// is followed (the file it names is replaced), a device or FIFO (/dev/stdout, /dev/null) is
+// written directly, and a directory is an error.
 #pragma once
 
 #include <cstdint>
 #include <functional>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -26,6 +32,13 @@
 #include "sampling/image_metrics.h"
 
 namespace tessera {
+
+/// An output file could not be written (disk full, I/O error, permissions changed during the
+/// render). The CLI reports it as "tessera: cannot write output: ..." with exit code 1.
+class OutputError : public std::runtime_error {
+  public:
+    explicit OutputError(const std::string &msg) : std::runtime_error(msg) {}
+};
 
 /// A group of channels of one layer, interleaved per pixel.
 struct ImageLayer {
@@ -77,12 +90,23 @@ std::vector<std::string> image_channel_names(const std::string &path);
 /// The temporary name an atomic write of `path` uses: "<path>.tmp-<pid>".
 std::string temp_path_for(const std::string &path);
 
-/// Runs `write(temp_path)` and renames the temporary onto `path`; removes the temporary and
-/// rethrows (as std::runtime_error) if `write` throws or the rename fails.
+/// Runs `write(temp_path)`, syncs the temporary to disk and renames it onto `path`; removes
+/// the temporary and rethrows (as OutputError) if `write` throws or the sync or rename
+/// fails. See the file comment for links, devices and directories.
 void write_atomically(const std::string &path,
                       const std::function<void(const std::string &temp_path)> &write);
 
 /// Writes `text` to `path` atomically (write_atomically). Throws std::runtime_error.
 void write_text_atomically(const std::string &path, const std::string &text);
+
+/// Checks before a long render that `path` will be writable by write_atomically: its folder
+/// exists and accepts a new file (a probe file is created there and removed), and `path` is
+/// not a directory. Devices and FIFOs are accepted as they are. `what` names the output in
+/// messages ("--stats", "the checkpoint"). Throws SceneError("path:0: message"). When the
+/// folder's free space is below `expected_bytes`, prints a warning (compression may still
+/// make the file fit). Not a guarantee -- the disk can fill up later -- but it turns the
+/// mistakes that can be seen at the start into an error at the start.
+void check_output_path(const std::string &path, const std::string &what,
+                       uint64_t expected_bytes = 0);
 
 }  // namespace tessera

@@ -1,6 +1,7 @@
 // Light sources (see lights.h). Equation references are to pbrt-v4's book (Pharr, Jakob,
 // Humphreys, "Physically Based Rendering", 4th ed., 2023) unless stated otherwise.
 #include "renderer/lights.h"
+#include "renderer/limits.h"
 
 #include <OpenImageIO/imageio.h>
 
@@ -543,8 +544,8 @@ std::vector<Rgb> read_rgb_image(const std::string &path, const FileLoc &loc, int
         throw SceneError(loc, "cannot read image \"" + path + "\": " + OIIO::geterror());
     const OIIO::ImageSpec &spec = in->spec();
     const int w = spec.width, h = spec.height, nc = spec.nchannels;
-    if (w <= 0 || h <= 0 || nc <= 0)
-        throw SceneError(loc, "image \"" + path + "\" is empty");
+    // Empty images, and sizes from a header that cannot be allocated, are rejected here.
+    check_image(w, h, nc, "image \"" + path + "\"", loc);
     std::vector<float> buf(size_t(w) * size_t(h) * size_t(nc));
     if (!in->read_image(0, 0, 0, nc, OIIO::TypeDesc::FLOAT, buf.data()))
         throw SceneError(loc, "cannot read image \"" + path + "\": " + in->geterror());

@@ -9,6 +9,7 @@
 
 #include "renderer/converge.h"
 #include "renderer/diff.h"
+#include "renderer/image_io.h"
 #include "renderer/render.h"
 
 namespace {
@@ -18,6 +19,8 @@ bool parse_resolution(const std::string &s, int *w, int *h) {
     std::smatch m;
     static const std::regex re(R"(^\s*(\d+)\s*[xX]\s*(\d+)\s*$)");
     if (!std::regex_match(s, m, re)) return false;
+    // More digits than an int holds: std::stoi would throw out_of_range.
+    if (m[1].length() > 9 || m[2].length() > 9) return false;
     *w = std::stoi(m[1]);
     *h = std::stoi(m[2]);
     return *w > 0 && *h > 0;
@@ -209,6 +212,14 @@ int main(int argc, char **argv) {
     } catch (const tessera::SceneError &e) {
         std::fprintf(stderr, "%s\n", e.what());
         return 2;
+    } catch (const tessera::OutputError &e) {
+        std::fprintf(stderr, "tessera: cannot write output: %s\n", e.what());
+        return 1;
+    } catch (const std::bad_alloc &) {
+        // The limits (renderer/limits.h) check the large allocations up front; this is what
+        // slipped past them.
+        std::fprintf(stderr, "tessera: out of memory\n");
+        return 1;
     } catch (const std::exception &e) {
         std::fprintf(stderr, "tessera: internal error: %s\n", e.what());
         return 1;

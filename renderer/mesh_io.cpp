@@ -5,23 +5,254 @@
 #include <assimp/scene.h>
 #include <assimp/Importer.hpp>
 
+#include <algorithm>
+#include <cctype>
 #include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <vector>
 
+#include "renderer/limits.h"
 #include "renderer/scene_desc.h"
 
 namespace tessera {
 
 namespace {
 
+/// A mesh file has no line numbers to give: errors name line 0 ("file:0: message").
 [[noreturn]] void fail(const std::string &path, const std::string &msg) {
-    throw SceneError(path + ": " + msg);
+    throw SceneError(FileLoc{path, 0}, msg);
+}
+
+/// Size in bytes of a PLY scalar type in a binary file, 0 if unknown.
+uint64_t ply_type_size(const std::string &t) {
+    if (t == "char" || t == "uchar" || t == "int8" || t == "uint8") return 1;
+    if (t == "short" || t == "ushort" || t == "int16" || t == "uint16") return 2;
+    if (t == "int" || t == "uint" || t == "int32" || t == "uint32" || t == "float" ||
+        t == "float32")
+        return 4;
+    if (t == "double" || t == "float64") return 8;
+    return 0;
+}
+
+/// One property of a PLY element: a scalar, or a list (count type, item type). Sizes in bytes
+/// of the binary encoding.
+struct PlyProperty {
+    bool list = false;
+    uint64_t count_size = 0, size = 0;  ///< list: count and item sizes; scalar: size
+};
+
+struct PlyElement {
+    std::string name;
+    uint64_t count = 0;
+    std::vector<PlyProperty> props;
+};
+
+/// A small buffered reader for walking a PLY body without holding it in memory.
+class PlyWalker {
+  public:
+    PlyWalker(std::ifstream &in, uint64_t remaining)
+        : in_(in), remaining_(remaining), buf_(size_t(1) << 16) {}
+    uint64_t remaining() const { return remaining_; }
+    /// Reads n <= 8 bytes; false at the end of the file.
+    bool read(uint8_t *out, uint64_t n) {
+        if (n > remaining_) return false;
+        for (uint64_t i = 0; i < n; ++i) out[i] = next();
+        return true;
+    }
+    bool skip(uint64_t n) {
+        if (n > remaining_) return false;
+        uint64_t buffered = std::min<uint64_t>(n, uint64_t(end_ - pos_));
+        pos_ += buffered;
+        remaining_ -= buffered;
+        n -= buffered;
+        if (n > 0) {
+            in_.seekg(std::streamoff(n), std::ios::cur);
+            remaining_ -= n;
+        }
+        return true;
+    }
+    /// The next whitespace-separated token (ASCII bodies); "" at the end of the file.
+    std::string token() {
+        std::string t;
+        while (remaining_ > 0) {
+            char c = char(next());
+            bool space = c == ' ' || c == '\n' || c == '\r' || c == '\t' || c == '\f' || c == '\v';
+            if (space) {
+                if (!t.empty()) break;
+            } else if (t.size() < 64) {
+                t += c;
+            }
+        }
+        return t;
+    }
+
+  private:
+    uint8_t next() {
+        if (pos_ == end_) {
+            in_.read(reinterpret_cast<char *>(buf_.data()), std::streamsize(buf_.size()));
+            pos_ = buf_.data();
+            end_ = pos_ + std::max<std::streamsize>(0, in_.gcount());
+            if (pos_ == end_) {  // shorter than its size said: treat as the end
+                remaining_ = 0;
+                return 0;
+            }
+        }
+        --remaining_;
+        return *pos_++;
+    }
+    std::ifstream &in_;
+    uint64_t remaining_;
+    std::vector<uint8_t> buf_;
+    uint8_t *pos_ = nullptr, *end_ = nullptr;
+};
+
+/// Checks a PLY file before assimp reads it. assimp 5.2 trusts every count it reads: a header
+/// without end_header makes it loop forever, a header claiming 10^12 vertices or one face list
+/// claiming 4 billion indices makes it allocate tens of GB (found by tests/broken and fuzz_ply;
+/// 13 GB from a 500-byte file). So the header's element counts are checked against the file
+/// size and the mesh limits (limits.h), and the body is walked once -- streaming, without
+/// keeping anything -- to check that every list's count fits in the bytes (binary) or tokens
+/// (ASCII) that remain. After this, what assimp allocates is bounded by the file size.
+void check_ply_file(const std::string &path) {
+    std::ifstream in(path, std::ios::binary);
+    std::string line;
+    // assimp checks only the first three bytes ("ply" or "PLY"): a file it rejects needs no
+    // check, any other must pass all of them (fuzz_ply hung assimp with "ply5555...").
+    if (!std::getline(in, line)) return;
+    std::string magic = line.substr(0, 3);
+    for (char &c : magic) c = char(std::tolower(static_cast<unsigned char>(c)));
+    if (magic != "ply") return;
+    std::string format;
+    std::vector<PlyElement> elements;
+    uint64_t header_bytes = line.size() + 1;
+    bool ended = false;
+    // A header is a few hundred bytes; 100000 lines without end_header is not a PLY file.
+    for (int n = 0; !ended && std::getline(in, line) && n < 100000; ++n) {
+        header_bytes += line.size() + 1;
+        if (!line.empty() && line.back() == '\r') line.pop_back();
+        std::istringstream ws(line);
+        std::string kw;
+        ws >> kw;
+        if (kw == "format") {
+            ws >> format;
+        } else if (kw == "element") {
+            PlyElement e;
+            std::string num;
+            ws >> e.name >> num;
+            if (num.empty() || num.find_first_not_of("0123456789") != std::string::npos ||
+                num.size() > 19)
+                fail(path, "PLY element \"" + e.name + "\" has a bad count \"" + num + "\"");
+            e.count = std::stoull(num);
+            elements.push_back(e);
+        } else if (kw == "property") {
+            if (elements.empty()) fail(path, "PLY property before any element");
+            PlyProperty p;
+            std::string t, item;
+            ws >> t;
+            if (t == "list") {
+                p.list = true;
+                ws >> t >> item;
+                p.count_size = ply_type_size(t);
+                p.size = ply_type_size(item);
+                if (p.count_size == 0 || p.size == 0)
+                    fail(path, "PLY list property with unknown types \"" + t + " " + item + "\"");
+            } else {
+                p.size = ply_type_size(t);
+                if (p.size == 0) fail(path, "PLY property with unknown type \"" + t + "\"");
+            }
+            elements.back().props.push_back(p);
+        } else if (kw == "end_header") {
+            ended = true;
+        }
+    }
+    // NOTE: assimp 5.2 loops forever on a header that never ends (found by the corpus in
+    // tests/broken/meshes/no_end_header.ply): it must not see such a file.
+    if (!ended) fail(path, "PLY header has no \"end_header\" line (truncated or corrupt file)");
+    const bool ascii = format == "ascii", big = format == "binary_big_endian";
+    if (!ascii && !big && format != "binary_little_endian")
+        fail(path, "unknown PLY format \"" + format + "\"");
+
+    std::error_code ec;
+    const uint64_t file_size = std::filesystem::file_size(path, ec);
+    if (ec) fail(path, "cannot read PLY: " + ec.message());
+    const uint64_t body = file_size - std::min(file_size, header_bytes);
+    // Each element needs at least 1 byte per scalar property in binary, or 2 in ASCII (a digit
+    // and a separator); a list at least its count.
+    uint64_t min_bytes = 0, vertices = 0, faces = 0;
+    for (const PlyElement &e : elements) {
+        uint64_t per = 0;
+        for (const PlyProperty &p : e.props) per += ascii ? 2 : (p.list ? p.count_size : p.size);
+        min_bytes = per != 0 && e.count > (UINT64_MAX - min_bytes) / per ? UINT64_MAX
+                                                                          : min_bytes + e.count * per;
+        if (e.name == "vertex") vertices = e.count;
+        if (e.name == "face") faces = e.count;
+    }
+    if (min_bytes > body)
+        fail(path, "PLY header declares " + std::to_string(vertices) + " vertices and " +
+                       std::to_string(faces) + " faces, more than the " +
+                       std::to_string(file_size) +
+                       " bytes of the file can hold (truncated or corrupt file)");
+    // Every face is at least one triangle.
+    check_mesh(vertices, faces, "PLY mesh", FileLoc{path, 0});
+
+    // Walk the body: every list count must fit in what is left of the file.
+    PlyWalker w(in, body);
+    auto bad_list = [&](const PlyElement &e, uint64_t i, const std::string &what) {
+        fail(path, "PLY " + e.name + " " + std::to_string(i) + ": " + what +
+                       " (truncated or corrupt file)");
+    };
+    for (const PlyElement &e : elements) {
+        bool has_list = false;
+        uint64_t fixed = 0;
+        for (const PlyProperty &p : e.props) {
+            has_list = has_list || p.list;
+            fixed += p.size;
+        }
+        if (!ascii && !has_list) {  // fixed-size records: one skip
+            if (!w.skip(e.count * fixed)) bad_list(e, 0, "the data ends early");
+            continue;
+        }
+        for (uint64_t i = 0; i < e.count; ++i)
+            for (const PlyProperty &p : e.props) {
+                if (ascii) {
+                    std::string t = w.token();
+                    if (t.empty()) bad_list(e, i, "the data ends early");
+                    if (!p.list) continue;
+                    if (t.find_first_not_of("0123456789") != std::string::npos || t.size() > 18)
+                        bad_list(e, i, "list count \"" + t + "\" is not a count");
+                    uint64_t n = std::stoull(t);
+                    if (n > w.remaining() / 2)
+                        bad_list(e, i, "a list of " + t + " values runs past the end of the file");
+                    for (uint64_t k = 0; k < n; ++k)
+                        if (w.token().empty()) bad_list(e, i, "the data ends early");
+                } else if (p.list) {
+                    uint8_t b[8] = {};
+                    if (!w.read(b, p.count_size)) bad_list(e, i, "the data ends early");
+                    uint64_t n = 0;
+                    for (uint64_t k = 0; k < p.count_size; ++k)
+                        n |= uint64_t(b[big ? p.count_size - 1 - k : k]) << (8 * k);
+                    // Signed count types: a negative count is a huge unsigned one here, and
+                    // fails the same test.
+                    if (n > w.remaining() / p.size)
+                        bad_list(e, i, "a list of " + std::to_string(n) +
+                                           " values runs past the end of the file");
+                    w.skip(n * p.size);
+                } else if (!w.skip(p.size)) {
+                    bad_list(e, i, "the data ends early");
+                }
+            }
+    }
 }
 
 }  // namespace
 
 MeshData load_ply(const std::string &path) {
     std::error_code ec;
-    if (!std::filesystem::is_regular_file(path, ec)) fail(path, "PLY file not found");
+    if (!std::filesystem::is_regular_file(path, ec))
+        fail(path, std::filesystem::is_directory(path, ec) ? "is a directory, not a PLY file"
+                                                            : "PLY file not found");
+    check_ply_file(path);
 
     Assimp::Importer importer;
     // NOTE: no post-processing at all. aiProcess_JoinIdenticalVertices would drop unreferenced

@@ -38,8 +38,10 @@ struct MeshData {
 /// duplicates vertices per face nor triangulates nor generates normals, so this function
 /// triangulates itself and only returns normals the file has.
 ///
-/// Throws SceneError("path: message") when the file is missing or cannot be parsed, when it
-/// has no faces, or when a face references a vertex that does not exist.
+/// Throws SceneError("path:0: message") when the file is missing or cannot be parsed, when it
+/// has no faces, when a face references a vertex that does not exist, or when the header
+/// declares more vertices or faces than the file can hold or than the limits allow (limits.h;
+/// checked before assimp allocates anything).
 /// Thread-safe (each call uses its own assimp importer).
 MeshData load_ply(const std::string &path);
 

@@ -122,7 +122,9 @@ struct Group {
 
 SceneDesc load_obj_scene(const std::string &path) {
     std::error_code ec;
-    if (!fs::is_regular_file(path, ec)) throw SceneError(path + ": OBJ file not found");
+    if (!fs::is_regular_file(path, ec))
+        throw SceneError(path + (fs::is_directory(path, ec) ? ":0: is a directory, not an OBJ file"
+                                                            : ":0: OBJ file not found"));
     const FileLoc loc{path, 0};
     const std::string base_dir = fs::path(path).parent_path().string();
 
@@ -136,7 +138,7 @@ SceneDesc load_obj_scene(const std::string &path) {
         for (std::string line; std::getline(lines, line);)
             if (!line.empty()) warn(loc, line);
     }
-    if (!ok || !reader.Valid()) throw SceneError(path + ": cannot read OBJ: " + reader.Error());
+    if (!ok || !reader.Valid()) throw SceneError(path + ":0: cannot read OBJ: " + reader.Error());
 
     const tinyobj::attrib_t &attrib = reader.GetAttrib();
     const auto &shapes = reader.GetShapes();
@@ -173,7 +175,7 @@ SceneDesc load_obj_scene(const std::string &path) {
                 const tinyobj::index_t &ix = mesh.indices[offset + size_t(k)];
                 if (ix.vertex_index < 0 ||
                     3 * size_t(ix.vertex_index) + 2 >= attrib.vertices.size())
-                    throw SceneError(path + ": face references a missing vertex");
+                    throw SceneError(path + ":0: face references a missing vertex");
                 auto key = std::make_tuple(ix.vertex_index, ix.texcoord_index, ix.normal_index);
                 auto it = g.vertex_of.find(key);
                 if (it != g.vertex_of.end()) {
@@ -241,7 +243,7 @@ SceneDesc load_obj_scene(const std::string &path) {
             scene.shapes.push_back(std::move(sd));
         }
     }
-    if (scene.shapes.empty()) throw SceneError(path + ": OBJ file has no faces");
+    if (scene.shapes.empty()) throw SceneError(path + ":0: OBJ file has no faces");
 
     // Camera, film and (without emitters) lights: see obj_loader.h and default_view.h.
     add_default_view(scene, lo, hi, any_emitter);

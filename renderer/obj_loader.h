@@ -55,7 +55,7 @@ inline constexpr int kObjFilmResolution = 512;
 /// and a "distant" key light "rgb L" [1.5 1.5 1.5] from the upper right front, direction
 /// (1, 2, 2) (normalised) toward the origin.
 ///
-/// Throws SceneError("path: message") when the file cannot be read or parsed or has no faces;
+/// Throws SceneError("path:0: message") when the file cannot be read or parsed or has no faces;
 /// tinyobjloader's warnings (e.g. a missing .mtl) go through warn(). Thread-safe.
 SceneDesc load_obj_scene(const std::string &path);
 

@@ -7,7 +7,10 @@
 #include "renderer/pbrt_parser.h"
 
 #include <charconv>
+#include <cfloat>
+#include <climits>
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -15,6 +18,7 @@
 #include <sstream>
 #include <string_view>
 
+#include "renderer/limits.h"
 #include "renderer/spectra.h"
 
 namespace tessera {
@@ -22,8 +26,6 @@ namespace tessera {
 namespace {
 
 namespace fs = std::filesystem;
-
-constexpr int kMaxIncludeDepth = 64;
 
 /// One lexical token. `quoted` tokens are strings with escapes already resolved.
 struct Token {
@@ -38,7 +40,10 @@ struct Token {
 class Tokenizer {
   public:
     Tokenizer(std::string text, std::string file)
-        : text_(std::move(text)), file_(std::move(file)) {}
+        : text_(std::move(text)), file_(std::move(file)) {
+        // A UTF-8 byte order mark (some editors write one) is not part of the scene.
+        if (text_.starts_with("\xEF\xBB\xBF")) pos_ = 3;
+    }
 
     const std::string &file() const { return file_; }
     FileLoc loc(int line) const { return {file_, line}; }
@@ -86,12 +91,26 @@ class Tokenizer {
                     if (d == ' ' || d == '\n' || d == '\t' || d == '\r' || d == '\f' ||
                         d == '\v' || d == '"' || d == '[' || d == ']' || d == '#')
                         break;
+                    // Directives, numbers and true/false are ASCII: anything else outside a
+                    // string means a binary, UTF-16 or otherwise damaged file. Say so rather
+                    // than echo raw bytes in an "unknown directive" message.
+                    if (!is_word_byte(d)) throw bad_byte(d);
                     ++pos_;
                 }
                 return Token{text_.substr(start, pos_ - start), false, line_};
             }
         }
         return std::nullopt;
+    }
+
+    static bool is_word_byte(char c) { return c > ' ' && c < 0x7f; }
+
+    SceneError bad_byte(char c) const {
+        char hex[8];
+        std::snprintf(hex, sizeof hex, "0x%02x", unsigned(static_cast<unsigned char>(c)));
+        return SceneError(loc(line_), std::string("unexpected byte ") + hex +
+                                          " (not a text file? pbrt scenes are ASCII or UTF-8 "
+                                          "text)");
     }
 
     Token lex_string() {
@@ -105,6 +124,9 @@ class Tokenizer {
             if (c == '"') break;
             if (c == '\n')
                 throw SceneError(loc(start_line), "unterminated string");
+            // Control characters (a NUL would cut a file name short) are never valid; UTF-8
+            // bytes are.
+            if (static_cast<unsigned char>(c) < 0x20 && c != '\t') throw bad_byte(c);
             if (c == '\\') {
                 if (pos_ >= text_.size())
                     throw SceneError(loc(start_line), "unterminated string");
@@ -143,7 +165,9 @@ std::optional<double> to_number(const Token &t) {
     if (*b == '+') ++b;  // from_chars rejects a leading '+'
     double v = 0;
     auto [ptr, ec] = std::from_chars(b, e, v);
-    if (ec != std::errc() || ptr != e || !std::isfinite(v)) return std::nullopt;
+    // Every number ends up in a float: reject what a float cannot hold (NaN, Inf, 1e39).
+    if (ec != std::errc() || ptr != e || !std::isfinite(v) || std::abs(v) > double(FLT_MAX))
+        return std::nullopt;
     return v;
 }
 
@@ -186,13 +210,31 @@ std::string join(const std::string &dir, const std::string &file) {
     return (fs::path(dir) / file).string();
 }
 
-bool read_text_file(const std::string &path, std::string *out) {
+/// Reads a whole text file. Returns "" on success, else why not ("not found", "is a directory",
+/// ...). Only regular files are read: a FIFO or a device such as /dev/zero would never end.
+std::string read_text_file(const std::string &path, std::string *out) {
+    std::error_code ec;
+    fs::file_status st = fs::status(path, ec);
+    if (ec || !fs::exists(st)) return "not found";
+    if (fs::is_directory(st)) return "is a directory, not a file";
+    if (!fs::is_regular_file(st)) return "is not a regular file";
+    uintmax_t size = fs::file_size(path, ec);
+    if (!ec && size > kMaxTextFileBytes)
+        return "is larger than the maximum of " + format_bytes(kMaxTextFileBytes);
     std::ifstream in(path, std::ios::binary);
-    if (!in) return false;
+    if (!in) return "cannot be opened";
     std::ostringstream ss;
     ss << in.rdbuf();
+    if (in.bad()) return "cannot be read";
     *out = ss.str();
-    return true;
+    return "";
+}
+
+/// A path's identity for include-cycle detection: its canonical form when it exists.
+std::string canonical_or_same(const std::string &path) {
+    std::error_code ec;
+    fs::path c = fs::weakly_canonical(path, ec);
+    return ec ? path : c.string();
 }
 
 /// Appends to `params` every parameter of `defaults` whose name `params` lacks (Attribute).
@@ -205,6 +247,12 @@ class Parser {
   public:
     Parser(SceneDesc &scene, std::string main_dir)
         : scene_(scene), main_dir_(std::move(main_dir)) {}
+
+    /// Files being parsed, outermost first (Include cycles): canonical path and name as given.
+    struct IncludeEntry {
+        std::string id, name;
+    };
+    std::vector<IncludeEntry> include_stack_;
 
     /// Parses one file's tokens; `dir` is that file's directory.
     void parse(Tokenizer &tok, const std::string &dir, int depth);
@@ -278,8 +326,28 @@ class Parser {
         if (in_world_)
             throw SceneError(tok.loc(t), t.text + " is not allowed after WorldBegin");
     }
-    void push(PushKind kind, const FileLoc &loc) { stack_.push_back({state_, kind, loc}); }
+    void push(PushKind kind, const FileLoc &loc) {
+        if (stack_.size() >= size_t(kMaxAttributeNesting))
+            throw SceneError(loc, std::string(push_name(kind)) + " nested more than " +
+                                      std::to_string(kMaxAttributeNesting) + " deep");
+        stack_.push_back({state_, kind, loc});
+    }
     void pop(Tokenizer &tok, const Token &t, PushKind kind);
+    /// Reads `name` as pbrt-v4 resolves it: against the main file's directory (its search
+    /// directory), then the including file's directory `dir` as a fallback. Sets *path to the
+    /// file read. Returns "" on success, else why the first candidate could not be read.
+    std::string read_relative(const std::string &dir, const std::string &name,
+                              std::string *path, std::string *text) {
+        *path = join(main_dir_, name);
+        std::string why = read_text_file(*path, text);
+        if (why.empty()) return "";
+        std::string alt = join(dir, name);
+        if (alt != *path && read_text_file(alt, text).empty()) {
+            *path = alt;
+            return "";
+        }
+        return why;
+    }
     void motion_warning(const FileLoc &loc) {
         if (warned_motion_) return;
         warned_motion_ = true;
@@ -392,17 +460,14 @@ Param Parser::parse_param(Tokenizer &tok, const Token &decl, const std::string &
                 // pbrt-v4's sensor curves are left as names (reported where used).
                 bool sensor = s.starts_with("canon_") || s.starts_with("nikon_") ||
                               s.starts_with("sony_") || s.starts_with("hasselblad_");
-                std::string text;
-                // pbrt-v4 resolves relative names against the main file's directory; the
-                // including file's directory is a fallback.
-                std::string path = join(main_dir_, s);
-                if (!sensor && !read_text_file(path, &text) &&
-                    !read_text_file(path = join(dir, s), &text))
-                    throw SceneError(p.loc, "spectrum \"" + s +
-                                                "\" is neither a named spectrum nor a readable "
-                                                "file");
-                if (!sensor) scene_.read_files.push_back(path);
+                std::string text, path;
                 if (!sensor) {
+                    std::string why = read_relative(dir, s, &path, &text);
+                    if (!why.empty())
+                        throw SceneError(p.loc, "spectrum \"" + s +
+                                                    "\" is neither a named spectrum nor a "
+                                                    "readable file (" + why + ")");
+                    scene_.read_files.push_back(path);
                     Tokenizer st(text, path);
                     while (std::optional<Token> t = st.next()) {
                         std::optional<double> d = to_number(*t);
@@ -429,10 +494,18 @@ Param Parser::parse_param(Tokenizer &tok, const Token &decl, const std::string &
     } else {
         numbers();
         if (p.type == "integer") {
-            for (double v : p.numbers)
+            for (size_t i = 0; i < p.numbers.size(); ++i) {
+                double v = p.numbers[i];
                 if (v != std::floor(v))
-                    throw SceneError(p.loc, "parameter \"integer " + p.name +
-                                                "\" has a non-integer value");
+                    throw SceneError(tok.loc(values[i]), "parameter \"integer " + p.name +
+                                                             "\" has a non-integer value " +
+                                                             values[i].text);
+                // Integers are 32-bit (pbrt-v4's int); converting a larger value is undefined.
+                if (v < double(INT_MIN) || v > double(INT_MAX))
+                    throw SceneError(tok.loc(values[i]),
+                                     "parameter \"integer " + p.name + "\" value " +
+                                         values[i].text + " is out of the 32-bit integer range");
+            }
         } else if (p.type == "point2" || p.type == "vector2") {
             count_multiple(2);
         } else if (p.type == "point3" || p.type == "vector3" || p.type == "normal" ||
@@ -616,22 +689,31 @@ void Parser::parse(Tokenizer &tok, const std::string &dir, int depth) {
         } else if (d == "Include" || d == "Import") {
             std::string name = expect_string(tok, d);
             if (depth + 1 > kMaxIncludeDepth)
-                throw SceneError(loc, d + " nested too deeply (recursive include?)");
+                throw SceneError(loc, d + " nested more than " +
+                                          std::to_string(kMaxIncludeDepth) + " files deep");
             if (name.ends_with(".gz"))
                 throw SceneError(loc, d + " file \"" + name +
                                           "\" is gzip-compressed; decompress it (gunzip) first");
-            // pbrt-v4 resolves relative names against the main file's directory (its search
-            // directory); the including file's directory is a fallback.
-            std::string path = join(main_dir_, name), text;
-            if (!read_text_file(path, &text)) {
-                std::string alt = join(dir, name);
-                if (alt == path || !read_text_file(alt, &text))
-                    throw SceneError(loc, "cannot open " + d + " file \"" + name + "\"");
-                path = alt;
+            std::string path, text;
+            std::string why = read_relative(dir, name, &path, &text);
+            if (!why.empty())
+                throw SceneError(loc, "cannot open " + d + " file \"" + name + "\": " + why);
+            // A file that includes itself, directly or through others, would recurse until
+            // the depth limit: name the cycle instead.
+            std::string id = canonical_or_same(path);
+            for (size_t i = 0; i < include_stack_.size(); ++i) {
+                if (include_stack_[i].id != id) continue;
+                std::string chain;
+                for (size_t j = i; j < include_stack_.size(); ++j)
+                    chain += include_stack_[j].name + " -> ";
+                throw SceneError(loc, d + " \"" + name + "\" includes itself (" + chain +
+                                          name + ")");
             }
             scene_.read_files.push_back(path);
+            include_stack_.push_back({id, path});
             Tokenizer sub(std::move(text), path);
             parse(sub, dir_of(path), depth + 1);
+            include_stack_.pop_back();
         } else if (d == "MakeNamedMaterial") {
             require_world(tok, t);
             std::string name = expect_string(tok, d);
@@ -775,11 +857,14 @@ void Parser::parse(Tokenizer &tok, const std::string &dir, int depth) {
 }
 
 void Parser::finish(const Tokenizer &main) {
+    // pbrt-v4 (BasicSceneBuilder::EndOfFiles) rejects a missing end too: the scopes of
+    // everything after it would be wrong.
     if (current_object_)
-        warn(current_object_->loc, "ObjectBegin \"" + current_object_->name +
-                                       "\" without ObjectEnd");
-    for (const StackEntry &e : stack_)
-        warn(e.loc, std::string(push_name(e.kind)) + " without a matching end");
+        throw SceneError(current_object_->loc, "ObjectBegin \"" + current_object_->name +
+                                                   "\" without ObjectEnd");
+    if (!stack_.empty())
+        throw SceneError(stack_.back().loc, std::string(push_name(stack_.back().kind)) +
+                                                " without a matching end");
     if (!in_world_) warn(main.loc(main.line()), "no WorldBegin: the scene is empty");
     auto check_material = [&](const ShapeDesc &s) {
         if (!s.material.empty() && !scene_.materials.count(s.material))
@@ -798,6 +883,7 @@ SceneDesc parse_text(std::string text, const std::string &file, const std::strin
     SceneDesc scene;
     scene.main_file = main_file;
     Parser parser(scene, dir);
+    parser.include_stack_.push_back({canonical_or_same(file), file});
     Tokenizer tok(std::move(text), file);
     parser.parse(tok, dir, 0);
     parser.finish(tok);
@@ -808,7 +894,8 @@ SceneDesc parse_text(std::string text, const std::string &file, const std::strin
 
 SceneDesc parse_pbrt_file(const std::string &path) {
     std::string text;
-    if (!read_text_file(path, &text)) throw SceneError(path + ": cannot open scene file");
+    if (std::string why = read_text_file(path, &text); !why.empty())
+        throw SceneError(path + ":0: cannot open the scene file: " + why);
     if (path.ends_with(".gz"))
         throw SceneError(path + ": gzip-compressed scene files are not supported");
     return parse_text(std::move(text), path, dir_of(path), path);

@@ -185,16 +185,12 @@ RenderReport run_render(const RenderOptions &opt) {
     auto [exr, png] = output_paths(requested);
     rep.exr_path = exr;
     rep.png_path = opt.write_png ? png : "";
-    // Fail before rendering when the output folder does not exist.
-    fs::path dir = fs::path(exr).parent_path();
-    std::error_code ec;
-    if (!dir.empty() && !fs::is_directory(dir, ec))
-        throw SceneError(exr + ":0: the output folder does not exist");
-    if (!opt.stats_path.empty()) {
-        fs::path sdir = fs::path(opt.stats_path).parent_path();
-        if (!sdir.empty() && !fs::is_directory(sdir, ec))
-            throw SceneError(opt.stats_path + ":0: the folder for --stats does not exist");
-    }
+    // Fail before rendering when an output cannot be written (missing or read-only folder, a
+    // directory in the way); warn when the disk looks too full for it.
+    const uint64_t pixels = uint64_t(scene->settings.width) * uint64_t(scene->settings.height);
+    check_output_path(exr, "the image", pixels * 17 * 4);
+    if (opt.write_png) check_output_path(png, "the PNG", pixels * 3);
+    if (!opt.stats_path.empty()) check_output_path(opt.stats_path, "--stats");
     // Resolve the display transform now: a bad OCIO config must fail before hours of rendering.
     std::optional<DisplayTransform> display;
     if (opt.write_png) {
@@ -210,6 +206,8 @@ RenderReport run_render(const RenderOptions &opt) {
         c.replace_extension(".checkpoint.exr");
         checkpoint = c.string();
     }
+    // Ctrl-C writes a checkpoint even without --checkpoint: check its folder too.
+    check_output_path(checkpoint, "the checkpoint", pixels * 27 * 4);
 
     SamplerSpec sampler = opt.sampler;
     if (sampler.is_frame()) {
@@ -279,7 +277,14 @@ RenderReport run_render(const RenderOptions &opt) {
             if (chunk_timeout) {
                 cs.passes = uint32_t(so.start_pass);
                 cs.elapsed_s = elapsed_before + seconds_since(t_render);
-                write_checkpoint(checkpoint, film, cs);
+                // A failed periodic checkpoint (disk full for a moment) must not throw away
+                // the render: warn, keep rendering, try again at the next one.
+                try {
+                    write_checkpoint(checkpoint, film, cs);
+                } catch (const std::exception &e) {
+                    warn(FileLoc{checkpoint, 0}, std::string("checkpoint not written: ") +
+                                                     e.what() + "; rendering continues");
+                }
                 rep.stats.out_of_time = false;
                 // A chunk that converged or could not take a sample has nothing left to do.
                 if (s.converged || s.samples == 0) break;
@@ -298,15 +303,29 @@ RenderReport run_render(const RenderOptions &opt) {
                              so.min_samples_for_error, errors);
     ExrWriteOptions eo;
     eo.half = opt.half;
-    write_film_exr(exr, film, eo, {ImageLayer{"error", {"Y"}, errors.error, true}});
-    if (opt.write_png) {
-        sampling::RgbImage img(film.width(), film.height(), film.beauty_rgb());
-        std::vector<uint8_t> rgb8 = display->to_8bit(img);
-        write_rgb8(png, img.width, img.height, rgb8);
+    cs.passes = so.start_pass >= 0 ? uint32_t(so.start_pass) : rep.passes_total;
+    cs.elapsed_s = elapsed_before + seconds_since(t_render);
+    try {
+        write_film_exr(exr, film, eo, {ImageLayer{"error", {"Y"}, errors.error, true}});
+        if (opt.write_png) {
+            sampling::RgbImage img(film.width(), film.height(), film.beauty_rgb());
+            std::vector<uint8_t> rgb8 = display->to_8bit(img);
+            write_rgb8(png, img.width, img.height, rgb8);
+        }
+    } catch (const std::exception &e) {
+        // The image could not be written (disk full?): save the work as a checkpoint if at
+        // all possible -- it may live on another disk -- and say how to get the image back.
+        std::string saved;
+        try {
+            write_checkpoint(checkpoint, film, cs);
+            saved = "; the render was saved to " + checkpoint + " (continue it with --resume " +
+                    checkpoint + ")";
+        } catch (const std::exception &c) {
+            saved = std::string("; the checkpoint could not be written either: ") + c.what();
+        }
+        throw OutputError(e.what() + saved);
     }
     if (rep.stats.cancelled || !opt.checkpoint.empty()) {
-        cs.passes = so.start_pass >= 0 ? uint32_t(so.start_pass) : rep.passes_total;
-        cs.elapsed_s = elapsed_before + seconds_since(t_render);
         write_checkpoint(checkpoint, film, cs);
         rep.checkpoint_path = checkpoint;
     }
@@ -366,7 +385,9 @@ RenderReport run_render(const RenderOptions &opt) {
         write_atomically(opt.stats_path, [&](const std::string &tmp) {
             std::ofstream f(tmp);
             f << j.dump(2) << "\n";
-            if (!f) throw std::runtime_error(opt.stats_path + ": cannot write");
+            // Close before checking: a full disk shows only when the buffer is flushed.
+            f.close();
+            if (f.fail()) throw std::runtime_error(opt.stats_path + ": cannot write");
         });
     }
     if (!opt.quiet) {

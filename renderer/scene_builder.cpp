@@ -1,10 +1,13 @@
 // Turns a SceneDesc into a renderable Scene: settings, textures, materials, Embree geometry,
 // area lights, other lights and the light sampler. pbrt-v4 defaults throughout.
+#include <algorithm>
+#include <cmath>
 #include <filesystem>
 #include <sstream>
 
 #include "renderer/mesh_io.h"
 #include "renderer/default_view.h"
+#include "renderer/limits.h"
 #include "renderer/loop_subdiv.h"
 #if __has_include("renderer/obj_loader.h")
 #include "renderer/obj_loader.h"
@@ -128,9 +131,10 @@ void apply_settings(const SceneDesc &d, const SceneOverrides &ov, Scene &sc) {
     if (ov.spp) s.spp = *ov.spp;
     if (ov.max_depth) s.max_depth = *ov.max_depth;
     if (ov.seed) s.seed = *ov.seed;
-    if (s.width <= 0 || s.height <= 0)
-        throw SceneError(d.film.loc, "film resolution must be positive");
-    if (s.spp <= 0) throw SceneError(d.sampler.loc, "pixelsamples must be positive");
+    // Resolution, spp and the film's memory, before any geometry is loaded.
+    check_film(s.width, s.height, s.spp,
+               ov.width || ov.height ? FileLoc{"--resolution", 0} : d.film.loc,
+               ov.spp ? FileLoc{"--spp", 0} : d.sampler.loc);
 
     // Pixel filter (pbrt-v4 default: gaussian, radius 1.5, sigma 0.5).
     std::string ft = d.filter.present ? d.filter.type : "gaussian";
@@ -219,6 +223,9 @@ std::optional<TriangleMesh> triangles_of(const ShapeDesc &sd, const Transform &x
             // pbrt-v4: "levels" (default 3) rounds of Loop subdivision, vertices on the limit
             // surface; the result is a triangle mesh with normals.
             int levels = std::clamp(ps.get_int("levels", 3), 0, 8);
+            // Each level quadruples the triangles: check the result's size first.
+            check_mesh(uint64_t(p.size()) << (2 * levels), uint64_t(idx.size() / 3) << (2 * levels),
+                       "loopsubdiv with " + std::to_string(levels) + " levels", sd.loc);
             for (int i : idx)
                 if (i < 0 || size_t(i) >= p.size())
                     throw SceneError(sd.loc, "loopsubdiv: vertex index out of range");
@@ -313,8 +320,33 @@ std::optional<TriangleMesh> triangles_of(const ShapeDesc &sd, const Transform &x
         warn(sd.loc, "\"uv\" has a different count than \"P\"; uvs ignored");
         uv.clear();
     }
+    check_mesh(p.size(), idx.size() / 3, sd.type, sd.loc);
+    // Mesh files can hold NaN or Inf (the pbrt parser rejects them in text), and a finite
+    // vertex can overflow under a huge transform: either would put NaN into the BVH and every
+    // image sample that meets it.
+    auto finite = [](Vec3f v) {
+        return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z);
+    };
     m.p.reserve(p.size() + 1);
-    for (Vec3f v : p) m.p.push_back(xf.point(v));
+    for (size_t i = 0; i < p.size(); ++i) {
+        Vec3f w = xf.point(p[i]);
+        if (!finite(w))
+            throw SceneError(sd.loc, sd.type + ": vertex " + std::to_string(i) + " (" +
+                                         std::to_string(p[i].x) + ", " + std::to_string(p[i].y) +
+                                         ", " + std::to_string(p[i].z) + ")" +
+                                         (finite(p[i]) ? " is not finite after its transform"
+                                                       : " is not finite"));
+        m.p.push_back(w);
+    }
+    if (!std::all_of(n.begin(), n.end(), finite)) {
+        warn(sd.loc, sd.type + ": \"N\" has non-finite normals; normals ignored");
+        n.clear();
+    }
+    if (!std::all_of(uv.begin(), uv.end(),
+                     [](Vec2f t) { return std::isfinite(t.x) && std::isfinite(t.y); })) {
+        warn(sd.loc, sd.type + ": \"uv\" has non-finite values; uvs ignored");
+        uv.clear();
+    }
     for (Vec3f v : n) {
         Vec3f w = xf.normal(v);
         float l = length(w);
@@ -534,8 +566,12 @@ std::unique_ptr<Scene> build_scene(const SceneDesc &d, const SceneOverrides &ov)
 
 std::unique_ptr<Scene> load_scene(const std::string &path, const SceneOverrides &ov) {
     std::error_code ec;
-    if (!fs::is_regular_file(path, ec))
-        throw SceneError(path + ":0: cannot open the scene file");
+    fs::file_status st = fs::status(path, ec);
+    if (!fs::is_regular_file(st))
+        throw SceneError(path + ":0: cannot open the scene file: " +
+                         (!fs::exists(st)            ? "not found"
+                          : fs::is_directory(st)     ? "is a directory, not a file"
+                                                     : "is not a regular file"));
     std::string ext = fs::path(path).extension().string();
     for (char &c : ext) c = char(std::tolower(static_cast<unsigned char>(c)));
     SceneDesc desc;

@@ -73,6 +73,9 @@ void warn(const FileLoc &loc, const std::string &msg) {
     std::string line = loc.file.empty() ? "warning: " + msg : loc.str() + ": warning: " + msg;
     WarningLog &log = warning_log();
     std::lock_guard<std::mutex> lock(log.mutex);
+    // A hostile file can produce any number of distinct warnings: bound the memory the
+    // deduplication keeps (at worst a message is then printed again).
+    if (log.seen.size() >= 100000) log.seen.clear();
     if (!log.seen.insert(line).second) return;
     ++log.count;
     log.last = line;

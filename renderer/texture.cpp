@@ -1,5 +1,6 @@
 // Texture classes, mappings and the image-map cache (see texture.h for the semantics).
 #include "renderer/texture.h"
+#include "renderer/limits.h"
 
 #include <OpenImageIO/imagebuf.h>
 #include <OpenImageIO/imagebufalgo.h>
@@ -530,6 +531,9 @@ PreparedImage prepare_image(const std::string &path, const std::string &encoding
     fs::path cached = dir / (fs::path(path).stem().string() + "-" + hex + ".exr");
     if (fs::is_regular_file(cached, ec)) return {cached.string(), out_channels};
 
+    // A header may claim any size: check before the conversion below reads it whole (tiled
+    // mipmapped files, returned above, are streamed by the TextureSystem instead).
+    check_image(spec.width, spec.height, spec.nchannels, "image \"" + path + "\"", loc);
     // Read without OIIO's default premultiplication by alpha: pbrt ignores alpha in image maps.
     OIIO::ImageSpec read_config;
     read_config.attribute("oiio:UnassociatedAlpha", 1);
@@ -728,7 +732,9 @@ struct TextureSet::Builder {
         std::string path = resolve(filename, d.base_dir, d.loc);
         std::error_code ec;
         if (!fs::is_regular_file(path, ec))
-            throw SceneError(d.loc, "imagemap: image file \"" + path + "\" not found");
+            throw SceneError(d.loc, "imagemap: image file \"" + path +
+                                        (fs::is_directory(path, ec) ? "\" is a directory"
+                                                                    : "\" not found"));
 
         ImageLookup img;
         img.filename = path;

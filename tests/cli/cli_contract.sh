@@ -230,11 +230,10 @@ sigint)
     "$tessera" render scene.pbrt -o out.exr --stats out.json --resolution 256x256 \
         --spp 1000000 --sampler uniform -q >stdout.txt 2>stderr.txt &
     pid=$!
+    # A background job of a non-interactive shell starts with SIGINT ignored until tessera
+    # installs its handler: on a loaded machine a single early signal was lost and the render
+    # ran on until the ctest timeout. Repeat the signal until the process exits.
     sleep 1.5
-    # Background jobs of a non-interactive shell start with SIGINT ignored, so a SIGINT that
-    # lands before tessera installs its handler (a slow start on a loaded machine) is lost:
-    # repeat it until the process exits. Later ones are harmless (the cancel flag is set again,
-    # or ignored once the handler is restored).
     for _ in $(seq 1 100); do
         kill -INT "$pid" 2>/dev/null || break
         sleep 0.5

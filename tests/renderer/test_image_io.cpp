@@ -14,7 +14,10 @@
 #include "renderer/color.h"
 #include "renderer/diff.h"
 #include "renderer/image_io.h"
+#include "renderer/scene_desc.h"
 #include "test_helpers.h"
+
+#include <unistd.h>
 
 using namespace tessera;
 namespace fs = std::filesystem;
@@ -204,6 +207,80 @@ TEST_CASE("failed writes throw and leave nothing behind") {
     CHECK_THROWS_AS(write_exr((dir / "bad.exr").string(), 2, 2, layers), std::invalid_argument);
     CHECK(listing(dir) == std::vector<std::string>{"taken.exr", "taken.png"});
     CHECK_THROWS_AS(read_image_rgb((dir / "missing.exr").string()), std::runtime_error);
+}
+
+TEST_CASE("atomic writes: links are followed, devices written directly, stale temporaries go") {
+    fs::path dir = fresh_dir("atomic");
+    auto write_text_to = [](const std::string &text) {
+        return [text](const std::string &p) {
+            std::ofstream f(p);
+            f << text;
+            f.close();
+            if (f.fail()) throw std::runtime_error(p + ": cannot write");
+        };
+    };
+    auto read = [](const fs::path &p) {
+        std::ifstream f(p);
+        std::stringstream ss;
+        ss << f.rdbuf();
+        return ss.str();
+    };
+    // A link is followed: the file it names gets the new content, the link stays a link.
+    write_atomically((dir / "real.json").string(), write_text_to("old"));
+    fs::create_symlink("real.json", dir / "link.json");
+    write_atomically((dir / "link.json").string(), write_text_to("new"));
+    CHECK(fs::is_symlink(dir / "link.json"));
+    CHECK(read(dir / "real.json") == "new");
+    // A device is written as it is (no temporary renamed over /dev/null).
+    write_atomically("/dev/null", write_text_to("discarded"));
+    CHECK(fs::is_character_file("/dev/null"));
+    // /dev/full: the write fails (ENOSPC on the flush) with an OutputError, and a link to it
+    // stays a link (a temporary renamed over it would have hidden the failure).
+    if (fs::exists("/dev/full")) {
+        fs::create_symlink("/dev/full", dir / "full.json");
+        CHECK_THROWS_AS(write_atomically((dir / "full.json").string(), write_text_to("x")),
+                        OutputError);
+        CHECK(fs::is_symlink(dir / "full.json"));
+    }
+    // A temporary left by a process that no longer runs (pid 2^22 + 1: above the largest
+    // pid_max Linux allows) goes with the next write; one of a running process (this one's
+    // parent) stays.
+    const std::string stale = (dir / "real.json").string() + ".tmp-4194305";
+    const std::string live = (dir / "real.json").string() + ".tmp-" + std::to_string(getppid());
+    std::ofstream(stale) << "partial";
+    std::ofstream(live) << "in progress";
+    write_atomically((dir / "real.json").string(), write_text_to("newer"));
+    CHECK_FALSE(fs::exists(stale));
+    CHECK(fs::exists(live));
+    CHECK(read(dir / "real.json") == "newer");
+}
+
+TEST_CASE("check_output_path: the mistakes visible before a render are errors before it") {
+    fs::path dir = fresh_dir("check_output");
+    auto error_of = [](const std::string &path) -> std::string {
+        try {
+            check_output_path(path, "the image");
+        } catch (const SceneError &e) {
+            return e.what();
+        }
+        return "";
+    };
+    CHECK(error_of((dir / "ok.exr").string()).empty());
+    CHECK(listing(dir).empty());  // the probe file is gone
+    std::string e = error_of((dir / "no/such/x.exr").string());
+    CHECK_MESSAGE(e.rfind((dir / "no/such/x.exr").string() + ":0: the image: the folder ", 0) == 0, e);
+    fs::create_directories(dir / "taken.exr");
+    e = error_of((dir / "taken.exr").string());
+    CHECK(e.find("is a directory") != std::string::npos);
+    CHECK(error_of("/dev/null").empty());
+    if (::geteuid() != 0) {
+        // root writes anywhere: only meaningful for other users.
+        fs::create_directories(dir / "readonly");
+        fs::permissions(dir / "readonly", fs::perms::owner_read | fs::perms::owner_exec);
+        e = error_of((dir / "readonly" / "x.exr").string());
+        CHECK(e.find("cannot create files in") != std::string::npos);
+        fs::permissions(dir / "readonly", fs::perms::owner_all);
+    }
 }
 
 TEST_CASE("tessera diff prints metrics and fails on bad input") {

@@ -358,13 +358,23 @@ TEST_CASE("PowerLightSampler: pmf proportional to power, sums to 1, O(1) lookup"
     PowerLightSampler sampler(lights);
     REQUIRE(sampler.size() == 4);
 
-    double total = 0, sum_lum = 0;
-    for (const Light *l : lights)
-        sum_lum += l->phi().luminance();
-    for (const Light *l : lights) {
-        CHECK(sampler.pmf(l) == doctest::Approx(l->phi().luminance() / sum_lum).epsilon(1e-5));
-        total += sampler.pmf(l);
-    }
+    // Local lights only: purely by power.
+    std::vector<const Light *> local = {&point, &sphere, &tri};
+    PowerLightSampler local_sampler(local);
+    double sum_local = 0;
+    for (const Light *l : local) sum_local += l->phi().luminance();
+    for (const Light *l : local)
+        CHECK(local_sampler.pmf(l) ==
+              doctest::Approx(l->phi().luminance() / sum_local).epsilon(1e-5));
+
+    // With a sky too: the sky (the infinite-extent group) gets 1/2, the local lights share
+    // the other half by power.
+    double total = 0;
+    CHECK(sampler.pmf(&sky) == doctest::Approx(0.5).epsilon(1e-6));
+    for (const Light *l : local)
+        CHECK(sampler.pmf(l) ==
+              doctest::Approx(0.5 * l->phi().luminance() / sum_local).epsilon(1e-5));
+    for (const Light *l : lights) total += sampler.pmf(l);
     CHECK(total == doctest::Approx(1.0).epsilon(1e-6));
     PointLight stranger({1, 1, 1}, Rgb(1.f));
     CHECK(sampler.pmf(&stranger) == 0.f);

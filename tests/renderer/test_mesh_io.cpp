@@ -113,7 +113,7 @@ TEST_CASE("load_ply: errors name the file") {
     try {
         load_ply(missing);
     } catch (const SceneError &e) {
-        CHECK(std::string(e.what()).rfind(missing + ": ", 0) == 0);
+        CHECK(std::string(e.what()).rfind(missing + ":0: ", 0) == 0);
     }
     std::string bad = write_text("bad.ply",
                                  "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\n"

@@ -367,14 +367,14 @@ TEST_CASE("bad files give file:line messages") {
     CHECK(error_of("WorldBegin\nAttributeBegin\nAttributeEnd\nAttributeEnd\n") ==
           "test.pbrt:4: unmatched AttributeEnd (no AttributeBegin)");
     CHECK(error_of("WorldBegin\nInclude \"does-not-exist.pbrt\"\n") ==
-          "test.pbrt:2: cannot open Include file \"does-not-exist.pbrt\"");
+          "test.pbrt:2: cannot open Include file \"does-not-exist.pbrt\": not found");
     CHECK(error_of("Shape \"sphere\"\n") == "test.pbrt:1: Shape is only allowed after WorldBegin");
     CHECK(error_of("WorldBegin\nCamera \"perspective\"\n") ==
           "test.pbrt:2: Camera is not allowed after WorldBegin");
     CHECK(error_of("WorldBegin\nShape \"sphere\" \"float radius\" [ \"one\" ]\n") ==
           "test.pbrt:2: parameter \"float radius\" expects numbers, found \"one\"");
     CHECK(error_of("WorldBegin\nShape \"sphere\" \"integer n\" [ 1.5 ]\n") ==
-          "test.pbrt:2: parameter \"integer n\" has a non-integer value");
+          "test.pbrt:2: parameter \"integer n\" has a non-integer value 1.5");
     CHECK(error_of("Translate 1 nan 2\n") ==
           "test.pbrt:1: Translate expects a number, found 'nan'");
     CHECK(error_of("WorldBegin\nWorldBegin\n") == "test.pbrt:2: WorldBegin given twice");

@@ -131,6 +131,27 @@ TEST_CASE("10^6 samples of 0.1 keep the mean exact to 1e-6") {
     CHECK(std::abs(naive / float(n) - 0.1f) / 0.1f > 1e-3);
 }
 
+TEST_CASE("2^20 samples of a constant average to the constant within 1e-6, at any magnitude") {
+    // Double sums: the mean of 2^20 equal floats is exact (the sum of n equal values needs
+    // only log2(n) more bits than one), for tiny, ordinary and huge radiance alike.
+    const uint32_t n = 1u << 20;
+    for (float level : {1e-20f, 1e-4f, 0.1f, 0.7f, 3.3e3f, 1e6f, 3e30f}) {
+        CAPTURE(level);
+        Film film(2, 1);
+        Sample s = hit_sample(Rgb(level, level, level), Rgb(0.5f), {0, 0, 1}, 1.f);
+        for (uint32_t i = 0; i < n; ++i) film.add_sample(1, 0, i, s);
+        PixelStats st = film.pixel_stats(1, 0);
+        CHECK(st.accepted == n);
+        CHECK(st.half_accepted == n / 2);
+        for (int c = 0; c < 3; ++c) {
+            CHECK(std::abs(st.mean[size_t(c)] - double(level)) <= 1e-6 * double(level));
+            CHECK(std::abs(st.half_mean[size_t(c)] - double(level)) <= 1e-6 * double(level));
+        }
+        CHECK(std::abs(film.beauty_rgb()[3] - level) <= 1e-6f * level);
+        CHECK(film.nan_count() == 0);
+    }
+}
+
 TEST_CASE("concurrent writers to different pixels") {
     const uint32_t w = 16, h = 16, spp = 200;
     Film film(w, h);

@@ -546,3 +546,67 @@ TEST_CASE("rebuild time of a 960x540 quadrant of a 1920x1080 image") {
             << tc.describe());
     CHECK(tc.nodes().size() > 1);
 }
+
+TEST_CASE("extreme sizes and error magnitudes keep valid floating-point splits") {
+    // The error of a pixel after 2^20 samples is ~1e-3 of its error after 16, and images range
+    // from one pixel to 65536 x 4: splits must stay finite, inside their parent, strictly
+    // between its bounds, and partition it exactly, whatever the scale of the error.
+    auto check_valid = [](const RegionTree &t) {
+        const PixelBounds g = t.grown();
+        for (const auto &n : t.nodes()) {
+            const FloatRect &b = n.bounds;
+            REQUIRE(std::isfinite(b.x0));
+            REQUIRE(std::isfinite(b.x1));
+            REQUIRE(std::isfinite(b.y0));
+            REQUIRE(std::isfinite(b.y1));
+            CHECK(b.x0 >= g.x0);
+            CHECK(b.x1 <= g.x1);
+            CHECK(b.y0 >= g.y0);
+            CHECK(b.y1 <= g.y1);
+            CHECK(b.x1 > b.x0);
+            CHECK(b.y1 > b.y0);
+            CHECK(!std::isnan(n.error));
+        }
+    };
+    SUBCASE("a 1x1 image") {
+        for (float e : {0.f, 1e-40f, 1e-30f, 1e-7f, 1.f, 1e30f, 3e38f, kInfF,
+                        std::numeric_limits<float>::quiet_NaN()}) {
+            CAPTURE(e);
+            ErrorImage img = make_image(1, 1, e);
+            RegionTree t({0, 0, 1, 1}, {0, 0, 1, 1}, 1.0);
+            RegionTreeParams p;
+            p.target = 1e-9;
+            CHECK(t.rebuild(img, p) == 1);  // one pixel never splits
+            check_valid(t);
+            // Unknown (inf, NaN) or too large errors keep the pixel active; zero completes it.
+            CHECK(t.complete() == (e < 1e-9f));
+            CHECK(t.pixel_active(0, 0) == !t.complete());
+        }
+    }
+    SUBCASE("a 32768x2 quadrant of a 65536x4 image, errors scaled from 1e-30 to 1e30") {
+        const int w = 65536, h = 4;
+        ErrorImage base = random_image(w, h, 5);
+        for (double scale : {1e-30, 1e-6, 1.0, 1e30}) {
+            CAPTURE(scale);
+            ErrorImage img = base;
+            for (float &v : img.error) v = float(v * scale);
+            // All of the error in a few columns far from the origin.
+            for (int y = 0; y < h; ++y)
+                for (int x = 30000; x < 30003; ++x) at(img, x, y) = float(1e3 * scale);
+            RegionTree t({0, 0, 32768, 2}, {0, 0, 32776, 4}, double(w) * h);
+            RegionTreeParams p;
+            p.target = 1e-4 * scale;
+            p.split_factor = 1e12;  // always localise
+            size_t nodes = t.rebuild(img, p);
+            CHECK(nodes > 1);
+            check_valid(t);
+            // Leaves partition the root (area sum; pairwise overlap only for small trees).
+            double sum = 0;
+            for (const auto &l : leaves(t)) sum += area(l.bounds);
+            CHECK(sum == doctest::Approx(32776.0 * 4.0).epsilon(1e-12));
+            if (nodes < 800) check_partition(t);
+            // The columns with the error stay open.
+            CHECK(t.pixel_active(30001, 1));
+        }
+    }
+}

@@ -287,3 +287,83 @@ TEST_CASE("stress: lock wait and rebuild times (barrier-free, oversubscribed)") 
         CHECK(st.lock_wait_fraction < 0.5);
     }
 }
+
+TEST_CASE("stress: 1x1 at 2^20 spp and 65536x4: exact means and valid float splits") {
+    SUBCASE("one pixel, 2^20 samples of a constant: the mean is the constant to 1e-6") {
+        for (float level : {0.1f, 3.7e-4f, 12345.678f}) {
+            CAPTURE(level);
+            SyntheticParams p;
+            p.base = SyntheticParams::Base::Flat;
+            p.level = level;
+            SyntheticSource src(1, 1, p);
+            sampling::Film film(1, 1);
+            AdaptiveOptions o = base_options(2);
+            o.max_spp = 1u << 20;
+            o.max_pass_spp = 1u << 18;
+            // A constant has no error: the adaptive mode would stop at min_spp. Uniform mode
+            // takes every sample.
+            o.adaptive = false;
+            AdaptiveScheduler sched(src, film, o);
+            AdaptiveStats st = sched.render();
+            CHECK(film.sample_count(0, 0) == (1u << 20));
+            CHECK(st.samples == (1u << 20));
+            sampling::PixelStats ps = film.pixel_stats(0, 0);
+            for (int c = 0; c < 3; ++c) {
+                CHECK(std::abs(ps.mean[size_t(c)] - double(level)) <= 1e-6 * double(level));
+                CHECK(std::abs(ps.half_mean[size_t(c)] - double(level)) <= 1e-6 * double(level));
+            }
+            for (int q = 0; q < 4; ++q) CHECK(test::leaves_partition(sched.tree(q)));
+        }
+    }
+    SUBCASE("one noisy pixel to 2^20 spp: the error estimate keeps shrinking, trees stay valid") {
+        SyntheticSource src(1, 1, test::gradient_noise_params(0.2f));
+        sampling::Film film(1, 1);
+        AdaptiveOptions o = base_options(2);
+        o.max_spp = 1u << 20;
+        o.max_pass_spp = 1u << 18;
+        o.error_target = 1e-12;
+        AdaptiveScheduler sched(src, film, o);
+        AdaptiveStats st = sched.render();
+        CHECK(film.sample_count(0, 0) == (1u << 20));
+        CHECK(std::isfinite(st.error_estimate));
+        CHECK(st.error_estimate < 1e-3);
+        for (int q = 0; q < 4; ++q) CHECK(test::leaves_partition(sched.tree(q)));
+    }
+    SUBCASE("65536x4: four 32768x2 quadrants with splits along a 32768-pixel axis") {
+        // The error lives in a few narrow columns: splits must land at fractional positions
+        // tens of thousands of pixels from the origin and still partition exactly.
+        SyntheticParams p;
+        p.base = SyntheticParams::Base::Flat;
+        p.noise = 0.3f;
+        p.noise_rect = {40000, 0, 40100, 4};
+        SyntheticSource src(65536, 4, p);
+        sampling::Film film(65536, 4);
+        AdaptiveOptions o = base_options(2);
+        o.min_spp = 4;
+        o.max_spp = 32;
+        o.max_pass_spp = 8;
+        // Low enough that the 100-pixel noisy strip keeps its quadrant's error above target
+        // (diluted over 65536 pixels) until the tree localises it.
+        o.error_target = 1e-5;
+        AdaptiveScheduler sched(src, film, o);
+        AdaptiveStats st = sched.render();
+        CHECK(st.samples >= uint64_t(65536) * 4 * o.min_spp);
+        size_t nodes = 0;
+        for (int q = 0; q < 4; ++q) {
+            const sampling::RegionTree &t = sched.tree(q);
+            CHECK(test::leaves_partition(t));
+            nodes += t.nodes().size();
+            for (const auto &n : t.nodes()) {
+                CHECK(std::isfinite(n.bounds.x0));
+                CHECK(std::isfinite(n.bounds.x1));
+                CHECK(n.bounds.x1 > n.bounds.x0);
+                CHECK(n.bounds.y1 > n.bounds.y0);
+            }
+        }
+        CHECK(nodes > 4);  // something split
+        // The noisy columns got more samples than the flat rest, even in their own quadrant.
+        CHECK(film.sample_count(40050, 1) > film.sample_count(100, 1));
+        CHECK(film.sample_count(40050, 1) > film.sample_count(60000, 1));
+        for (float v : film.beauty_rgb()) REQUIRE(std::isfinite(v));
+    }
+}

@@ -1,0 +1,94 @@
+// What each fuzz target does with one input, shared by the libFuzzer targets (tests/fuzz/fuzz_*.cpp,
+// built with -DTESSERA_FUZZ=ON, run by scripts/run_fuzz.sh) and by the regression test that
+// replays the inputs fuzzing once crashed on (tests/renderer/test_fuzz_regressions.cpp, normal
+// build).
+//
+// The contract under test: any byte string is either accepted or rejected with a SceneError.
+// Anything else -- another exception type (it would reach the CLI as "internal error", exit 1),
+// a crash, a sanitizer report, a hang or a huge allocation -- is a bug.
+#pragma once
+
+#include <unistd.h>
+
+#include <cstdint>
+#include <filesystem>
+#include <fstream>
+#include <string>
+#include <string_view>
+
+#include "renderer/mesh_io.h"
+#include "renderer/obj_loader.h"
+#include "renderer/pbrt_parser.h"
+#include "renderer/scene.h"
+
+namespace tessera::fuzz {
+
+/// Which loader an input goes to.
+enum class Target { Pbrt, Ply, Obj };
+
+/// A scratch folder of this process for inputs that must be files (the mesh loaders take paths).
+inline const std::filesystem::path &scratch_dir() {
+    static const std::filesystem::path dir = [] {
+        std::filesystem::path d = std::filesystem::temp_directory_path() /
+                                  ("tessera-fuzz-" + std::to_string(long(::getpid())));
+        std::filesystem::create_directories(d);
+        return d;
+    }();
+    return dir;
+}
+
+inline void write_file(const std::filesystem::path &p, std::string_view bytes) {
+    std::ofstream(p, std::ios::binary | std::ios::trunc).write(bytes.data(),
+                                                                std::streamsize(bytes.size()));
+}
+
+/// Parses `bytes` as a pbrt-v4 scene and, when that succeeds, builds it at 4x4 pixels and 1 spp
+/// (materials, textures, meshes, lights, Embree geometry; no rendering). Relative file names
+/// resolve against the scratch folder, which holds nothing.
+inline void run_pbrt(std::string_view bytes) {
+    SceneDesc desc = parse_pbrt_string(std::string(bytes), "fuzz.pbrt", scratch_dir().string());
+    SceneOverrides ov;
+    ov.width = ov.height = 4;
+    ov.spp = 1;
+    build_scene(desc, ov);
+}
+
+/// Loads `bytes` as a PLY file with load_ply (assimp).
+inline void run_ply(std::string_view bytes) {
+    std::filesystem::path p = scratch_dir() / "fuzz.ply";
+    write_file(p, bytes);
+    load_ply(p.string());
+}
+
+/// Loads `bytes` as an OBJ scene with load_obj_scene (tinyobjloader). Everything after a line
+/// "#MTL" becomes the material library fuzz.mtl beside it, so that `mtllib fuzz.mtl` reaches the
+/// MTL parser too.
+inline void run_obj(std::string_view bytes) {
+    std::string_view obj = bytes, mtl;
+    if (size_t cut = bytes.find("\n#MTL\n"); cut != std::string_view::npos) {
+        obj = bytes.substr(0, cut + 1);
+        mtl = bytes.substr(cut + 6);
+    }
+    write_file(scratch_dir() / "fuzz.mtl", mtl);
+    std::filesystem::path p = scratch_dir() / "fuzz.obj";
+    write_file(p, obj);
+    SceneDesc desc = load_obj_scene(p.string());
+    SceneOverrides ov;
+    ov.width = ov.height = 4;
+    ov.spp = 1;
+    build_scene(desc, ov);
+}
+
+/// Runs one input; SceneError (bad input, reported as file:line) is the accepted way to fail.
+inline void run(Target t, std::string_view bytes) {
+    try {
+        switch (t) {
+        case Target::Pbrt: run_pbrt(bytes); break;
+        case Target::Ply: run_ply(bytes); break;
+        case Target::Obj: run_obj(bytes); break;
+        }
+    } catch (const SceneError &) {
+    }
+}
+
+}  // namespace tessera::fuzz
