@@ -10,7 +10,10 @@ snapshots, errors against a cached high-sample reference) into OUT/<scene>/, the
 OUT/report.html (scripts/convergence_report.py: summary table, then per scene the headline table,
 error-versus-time plots with fitted slopes, equal-time crops and sample-count heat maps),
 OUT/suite.csv (every row of every scene, with a `scene` column) and OUT/summary.txt (the headline
-tables as tessera printed them).
+tables as tessera printed them). Without --quick (and unless --no-realtime) it then runs
+scripts/bench_realtime.py at 256x256 (every real-time plugin and fixed 1/4/8/9/16 against a
+stratified ground truth) into OUT/realtime/, writes OUT/suite-realtime.csv and appends that table
+to the report.
 
 Budget on 2 cores. Default: 10 s per sampler at about 13k pixels, references of 3072 spp; about
 10 minutes when the reference cache is cold (the references are most of it), 2-3 minutes when
@@ -25,6 +28,7 @@ relative to the output folder, i.e. shared between runs into the same parent fol
 """
 import argparse
 import csv
+import html
 import os
 import re
 import subprocess
@@ -50,19 +54,54 @@ DEFAULT_TIME_S, QUICK_TIME_S = 10.0, 1.0
 SNAPSHOTS, QUICK_SNAPSHOTS = 8, 6
 
 # ----------------------------------------------------------------------------------------------
-# EXTENSION POINT: the real-time sampler plugins (`tessera render --sampler jin|kim|fliptri|...`,
-# sampling/pixel_sampler.h) against `fixed:N`. They render one frame at a fixed cost instead of
-# converging over time, so they get an equal-cost comparison, not a curve: for each scene, render
-# the plugin and fixed:N (N chosen for about the same rays), compare both with the scene's cached
-# reference (the "reference" path in OUT/<scene>/convergence.json) using `tessera diff`, and add
-# rows with kind "realtime" to suite.csv and a table to the report. List the pairs here and
-# implement run_realtime(); main() already calls it for every scene when the list is not empty.
-REALTIME_PLUGINS = []  # e.g. [("jin", "fixed:4"), ("fliptri", "fixed:2")]
+# The real-time sampler plugins (`tessera render --sampler jin|kim|fliptri|...`) render one frame
+# at a fixed cost instead of converging over time, so they get an equal-cost table, not a curve:
+# scripts/bench_realtime.py renders its scenes (examples/realtime, plus ../shared's Cornell box)
+# with every plugin and fixed 1, 4, 8, 9, 16 against a stratified ground truth. The suite runs it
+# at a small size (not with --quick) and adds its rows (kind "realtime") to suite.csv and its
+# table to the report.
+REALTIME_RES, REALTIME_FRAMES, REALTIME_GT_SPP = 256, 2, 64
 
 
-def run_realtime(tessera, scene_path, run_dir, res, threads):
-    """Runs REALTIME_PLUGINS on one scene; returns rows for suite.csv (see EXTENSION POINT)."""
-    raise NotImplementedError("real-time plugin comparison: see EXTENSION POINT in this file")
+def run_realtime(tessera, out_dir, threads):
+    """Runs scripts/bench_realtime.py into OUT/realtime; returns its CSV rows."""
+    rt_dir = os.path.join(out_dir, "realtime")
+    cmd = [sys.executable, os.path.join(ROOT, "scripts", "bench_realtime.py"), "--tessera",
+           tessera, "--resolution", str(REALTIME_RES), "--frames", str(REALTIME_FRAMES),
+           "--gt-spp", str(REALTIME_GT_SPP), "--out", rt_dir]
+    if threads:
+        cmd += ["--threads", str(threads)]
+    r = subprocess.run(cmd, capture_output=True, text=True)
+    if r.returncode != 0:
+        sys.exit(f"bench_suite: failed ({r.returncode}): {' '.join(cmd)}\n{r.stderr}")
+    print(r.stdout, flush=True)
+    with open(os.path.join(rt_dir, "realtime.csv"), newline="") as f:
+        return list(csv.DictReader(f)), r.stdout
+
+
+def add_realtime(out_dir, rows, text):
+    """Appends the real-time rows to suite.csv and a table to report.html."""
+    with open(os.path.join(out_dir, "suite-realtime.csv"), "w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=["kind"] + list(rows[0]))
+        w.writeheader()
+        for row in rows:
+            w.writerow({"kind": "realtime", **row})
+    cells = "".join(
+        f"<tr><td>{html.escape(r['scene'])}</td><td>{html.escape(r['sampler'])}</td>"
+        f"<td>{float(r['psnr']):.2f}</td><td>{float(r['rays_per_pixel']):.2f}</td>"
+        f"<td>{float(r['frame_ms_median']):.1f}</td>"
+        f"<td>{100 * float(r['active_fraction']):.1f}% {html.escape(r['active_unit'])}</td></tr>"
+        for r in rows)
+    section = (f"<h2>Real-time samplers against fixed N ({REALTIME_RES}x{REALTIME_RES}, "
+               f"ground truth fixed:spp={REALTIME_GT_SPP})</h2>\n<table border='1'>"
+               "<tr><th>scene</th><th>sampler</th><th>PSNR dB</th><th>rays/px</th>"
+               f"<th>ms/frame</th><th>active</th></tr>{cells}</table>\n"
+               f"<pre>{html.escape(text)}</pre>\n")
+    report = os.path.join(out_dir, "report.html")
+    page = open(report).read()
+    page = page.replace("</body>", section + "</body>") if "</body>" in page else page + section
+    with open(report, "w") as f:
+        f.write(page)
 # ----------------------------------------------------------------------------------------------
 
 
@@ -129,6 +168,8 @@ def main():
     ap.add_argument("--time", type=float, help="seconds per sampler (default 10, quick 1)")
     ap.add_argument("--threads", type=int, default=0, help="worker threads (default: all)")
     ap.add_argument("--cache-dir", help="reference cache (default: <OUT>/../converge-cache)")
+    ap.add_argument("--no-realtime", action="store_true",
+                    help="skip the real-time plugins' table (never run with --quick)")
     ap.add_argument("--check", action="store_true",
                     help="fail unless every report is produced and sane")
     a = ap.parse_args()
@@ -155,8 +196,6 @@ def main():
         res, ref_spp = (quick_res, quick_ref_spp) if a.quick else (res, ref_spp)
         stdout, secs = run_converge(a.tessera, scene_path, run_dir, res, ref_spp, time_s,
                                     a.threads, cache_dir, a.quick)
-        if REALTIME_PLUGINS:
-            run_realtime(a.tessera, scene_path, run_dir, res, a.threads)
         names.append(name)
         block = f"== {name} ({res}, {secs:.0f} s with the reference)\n{stdout}"
         summary.append(block)
@@ -172,6 +211,9 @@ def main():
                                "Tessera benchmark suite" + (" (quick)" if a.quick else "")])
     if report.returncode != 0:
         sys.exit(f"bench_suite: the report failed (exit {report.returncode})")
+    if not a.quick and not a.no_realtime:
+        rt_rows, rt_text = run_realtime(a.tessera, out_dir, a.threads)
+        add_realtime(out_dir, rt_rows, rt_text)
     print(f"bench_suite: wrote {os.path.join(out_dir, 'report.html')}, {csv_path} "
           f"in {time.monotonic() - t_start:.0f} s")
     if check:
