@@ -120,7 +120,9 @@ TEST_CASE("striped locks: 8-neighbours never share a stripe; a sweep waits for r
 }
 
 TEST_CASE("quadrants split at tile boundaries; every tile in exactly one quadrant") {
-    for (auto [w, h] : {std::pair{1u, 1u}, {17u, 9u}, {24u, 40u}, {1u, 100u}, {100u, 3u}}) {
+    for (auto wh : {std::pair{1u, 1u}, {17u, 9u}, {24u, 40u}, {1u, 100u}, {100u, 3u}}) {
+        // Plain variables: clang 14 cannot capture structured bindings in CAPTURE's lambda.
+        const uint32_t w = wh.first, h = wh.second;
         SyntheticSource src(w, h);
         sampling::Film film(w, h);
         AdaptiveScheduler sched(src, film, quiet(1));

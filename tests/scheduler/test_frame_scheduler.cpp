@@ -53,7 +53,8 @@ class RecordingSampler final : public PixelSampler {
 
 TEST_CASE("frame scheduler: every pixel once per stage, stages separated by barriers") {
     for (uint32_t threads : {1u, 3u, 8u}) {
-        for (auto [w, h] : {std::pair{1u, 1u}, {7u, 9u}, {8u, 8u}, {37u, 21u}}) {
+        for (auto wh : {std::pair{1u, 1u}, {7u, 9u}, {8u, 8u}, {37u, 21u}}) {
+            const uint32_t w = wh.first, h = wh.second;  // CAPTURE needs plain variables
             test::SyntheticAttributeSource src(w, h);
             RecordingSampler rec;
             sched::FrameScheduler fs(sched::FrameOptions{threads});
