@@ -54,6 +54,7 @@ int run_diff(const std::string &a, const std::string &b, std::ostream &out, std:
     print_row(out, "RMSE", c.rmse);
     print_row(out, "relMSE", c.rel_mse);
     print_row(out, "PSNR", c.psnr);
+    print_row(out, "MAE", c.mae);
     print_mean(out, "mean(A)", c.mean_test);
     print_mean(out, "mean(B)", c.mean_ref);
     return 0;

@@ -4,9 +4,10 @@
 
 #include <embree3/rtcore_ray.h>
 
-#include <cstring>
-
+#include <algorithm>
+#include <climits>
 #include <cmath>
+#include <cstring>
 #include <cstdio>
 #include <stdexcept>
 
@@ -354,6 +355,57 @@ void Geometry::commit() {
     bmin_ = {b.lower_x, b.lower_y, b.lower_z};
     bmax_ = {b.upper_x, b.upper_y, b.upper_z};
     if (!(bmin_.x <= bmax_.x)) bmin_ = bmax_ = {0, 0, 0};
+    // Object ids in top-level geomID order; an instance reserves one id per prototype shape.
+    object_base_.assign(top.records.size(), 0);
+    int64_t next = 0;
+    for (size_t id = 0; id < top.records.size(); ++id) {
+        object_base_[id] = int32_t(next);
+        const auto &rec = top.records[id];
+        if (rec.kind == GeometryGroup::Record::Kind::Instance)
+            next += int64_t(groups_[size_t(instances_[size_t(rec.index)].proto)]->records.size());
+        else
+            ++next;
+    }
+    // NOTE: beyond 2^31 - 1 shapes the ids would wrap; no scene comes near that.
+    object_count_ = int32_t(std::min<int64_t>(next, INT32_MAX));
+}
+
+int Geometry::object_material(int32_t object_id) const {
+    if (object_id < 0 || object_id >= object_count_ || object_base_.empty()) return -1;
+    // The last top-level geometry whose first id is <= object_id.
+    auto it = std::upper_bound(object_base_.begin(), object_base_.end(), object_id);
+    size_t geom = size_t(it - object_base_.begin()) - 1;
+    const GeometryGroup *g = groups_[0].get();
+    GeometryGroup::Record rec = g->records[geom];
+    if (rec.kind == GeometryGroup::Record::Kind::Instance) {
+        g = groups_[size_t(instances_[size_t(rec.index)].proto)].get();
+        size_t local = size_t(object_id - object_base_[geom]);
+        if (local >= g->records.size()) return -1;
+        rec = g->records[local];
+    }
+    if (rec.kind == GeometryGroup::Record::Kind::Mesh)
+        return g->meshes[size_t(rec.index)]->material;
+    if (rec.kind == GeometryGroup::Record::Kind::Quadric)
+        return g->quadrics[size_t(rec.index)]->material;
+    return -1;  // nested instances are not built
+}
+
+std::vector<TopLevelShape> Geometry::top_level_shapes() const {
+    std::vector<TopLevelShape> out;
+    const GeometryGroup &top = *groups_[0];
+    for (size_t id = 0; id < top.records.size() && id < object_base_.size(); ++id) {
+        const auto &rec = top.records[id];
+        TopLevelShape s;
+        s.object_id = object_base_[id];
+        if (rec.kind == GeometryGroup::Record::Kind::Mesh)
+            s.mesh = top.meshes[size_t(rec.index)].get();
+        else if (rec.kind == GeometryGroup::Record::Kind::Quadric)
+            s.quadric = top.quadrics[size_t(rec.index)].get();
+        else
+            continue;
+        out.push_back(s);
+    }
+    return out;
 }
 
 namespace {
@@ -517,19 +569,97 @@ std::optional<SurfaceInteraction> Geometry::intersect(const Ray &ray) const {
     // Filled in place: the interaction is ~200 bytes, and a local copied into the optional
     // showed up in the profile.
     std::optional<SurfaceInteraction> out(std::in_place);
-    SurfaceInteraction &si = *out;
-    si.t = rh.ray.tfar;
+    fill_hit(ray, rh.ray.tfar, rh.hit.geomID, rh.hit.primID, rh.hit.instID[0], rh.hit.u,
+             rh.hit.v, *out);
+    return out;
+}
+
+namespace {
+
+/// Loads rays[0..n) into an Embree packet of width K (RTCRayHit4 / RTCRayHit8) and marks
+/// those lanes valid; the other lanes are invalid and left zeroed.
+template <int K, class RayHitK>
+void load_packet(const Ray *rays, int n, RayHitK &rh, int *valid) {
+    std::memset(&rh, 0, sizeof(rh));
+    for (int i = 0; i < K; ++i) {
+        valid[i] = i < n ? -1 : 0;
+        rh.hit.geomID[i] = RTC_INVALID_GEOMETRY_ID;
+        rh.hit.instID[0][i] = RTC_INVALID_GEOMETRY_ID;
+        if (i >= n) continue;
+        const Ray &r = rays[i];
+        rh.ray.org_x[i] = r.o.x;
+        rh.ray.org_y[i] = r.o.y;
+        rh.ray.org_z[i] = r.o.z;
+        rh.ray.dir_x[i] = r.d.x;
+        rh.ray.dir_y[i] = r.d.y;
+        rh.ray.dir_z[i] = r.d.z;
+        rh.ray.tnear[i] = 0.f;
+        rh.ray.tfar[i] = r.t_max;
+        rh.ray.time[i] = 0.f;
+        rh.ray.mask[i] = 0xFFFFFFFFu;
+        rh.ray.id[i] = unsigned(i);
+        rh.ray.flags[i] = 0;
+    }
+}
+
+}  // namespace
+
+void Geometry::intersect8(const Ray *rays, int count,
+                          std::optional<SurfaceInteraction> *out) const {
+    RTCScene scene = groups_[0]->scene;
+    // Unpacks lane i of a packet through the single-ray hit record code.
+    auto unpack = [&](const auto &rh, int i, int base) {
+        std::optional<SurfaceInteraction> &o = out[base + i];
+        if (rh.hit.geomID[i] == RTC_INVALID_GEOMETRY_ID) {
+            o.reset();
+            return;
+        }
+        o.emplace();
+        fill_hit(rays[base + i], rh.ray.tfar[i], rh.hit.geomID[i], rh.hit.primID[i],
+                 rh.hit.instID[0][i], rh.hit.u[i], rh.hit.v[i], *o);
+    };
+    int base = 0;
+    while (base < count) {
+        int n = std::min(8, count - base);
+        RTCIntersectContext ctx;
+        rtcInitIntersectContext(&ctx);
+        if (n == 1) {
+            out[base] = intersect(rays[base]);
+        } else if (n <= 4) {
+            alignas(16) int valid[4];
+            alignas(16) RTCRayHit4 rh;
+            load_packet<4>(rays + base, n, rh, valid);
+            rtcIntersect4(valid, scene, &ctx, &rh);
+            for (int i = 0; i < n; ++i) unpack(rh, i, base);
+        } else {
+            alignas(32) int valid[8];
+            alignas(32) RTCRayHit8 rh;
+            load_packet<8>(rays + base, n, rh, valid);
+            rtcIntersect8(valid, scene, &ctx, &rh);
+            for (int i = 0; i < n; ++i) unpack(rh, i, base);
+        }
+        base += n;
+    }
+}
+
+void Geometry::fill_hit(const Ray &ray, float t, unsigned geom_id, unsigned prim_id,
+                        unsigned inst_id, float u, float v, SurfaceInteraction &si) const {
+    si.t = t;
     const GeometryGroup *g = groups_[0].get();
     const Transform *inst = nullptr;
-    if (rh.hit.instID[0] != RTC_INVALID_GEOMETRY_ID) {
-        const auto &rec = g->records[rh.hit.instID[0]];
+    if (inst_id != RTC_INVALID_GEOMETRY_ID) {
+        const auto &rec = g->records[inst_id];
         const InstanceRec &ir = instances_[size_t(rec.index)];
         inst = &ir.render_from_instance;
         g = groups_[size_t(ir.proto)].get();
+        si.object_id = inst_id < object_base_.size() ? object_base_[inst_id] + int32_t(geom_id)
+                                                     : -1;
+    } else {
+        si.object_id = geom_id < object_base_.size() ? object_base_[geom_id] : -1;
     }
-    const auto &rec = g->records[rh.hit.geomID];
+    const auto &rec = g->records[geom_id];
     if (rec.kind == GeometryGroup::Record::Kind::Mesh) {
-        fill_triangle(*g->meshes[size_t(rec.index)], rh.hit.primID, rh.hit.u, rh.hit.v, si);
+        fill_triangle(*g->meshes[size_t(rec.index)], prim_id, u, v, si);
     } else {
         // Quadrics compute their hit from the ray in their group's space.
         Vec3f o = ray.o, d = ray.d;
@@ -552,7 +682,6 @@ std::optional<SurfaceInteraction> Geometry::intersect(const Ray &ray) const {
     // Integrator rays are unit already; normalise only the others (tests pass any length).
     float d2 = length_squared(ray.d);
     si.wo = std::abs(d2 - 1.f) < 1e-6f ? -ray.d : -(ray.d / std::sqrt(d2));
-    return out;
 }
 
 bool Geometry::occluded(const Ray &ray) const {

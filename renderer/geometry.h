@@ -56,8 +56,21 @@ struct Quadric {
 /// One Embree scene: the top level, or an instanced object's prototype.
 class GeometryGroup;
 
+/// A shape of the top level (not instanced) with its object id (see Geometry::object_material).
+/// Exactly one of `mesh` and `quadric` is set.
+struct TopLevelShape {
+    int32_t object_id = -1;
+    const TriangleMesh *mesh = nullptr;
+    const Quadric *quadric = nullptr;
+};
+
 /// All geometry of a scene. Build with the add_* calls, then `commit()`; afterwards
-/// `intersect` and `occluded` are thread-safe.
+/// `intersect`, `intersect8` and `occluded` are thread-safe.
+///
+/// Object ids: `commit()` numbers the shapes densely in the order of the top level's Embree
+/// geometry ids: a top-level mesh, sphere or disk gets one id; an instance of a prototype with
+/// k shapes gets k consecutive ids (prototype shape j -> base + j), so two instances of one
+/// prototype differ. The ids are stable for a given scene file.
 class Geometry {
   public:
     Geometry();
@@ -78,8 +91,20 @@ class Geometry {
 
     /// Closest hit along the ray within (0, ray.t_max), or nothing.
     std::optional<SurfaceInteraction> intersect(const Ray &ray) const;
+    /// The closest hits of `count` rays, traced as Embree ray packets: groups of 8 in order
+    /// (rtcIntersect8 with a valid mask), a last group of at most 4 with rtcIntersect4 and a
+    /// single ray with rtcIntersect1. out[i] is exactly what intersect(rays[i]) returns (the
+    /// same hit record code; the tests check bit equality). Thread-safe.
+    void intersect8(const Ray *rays, int count, std::optional<SurfaceInteraction> *out) const;
     /// True if anything blocks the segment (0, ray.t_max).
     bool occluded(const Ray &ray) const;
+
+    /// Number of object ids (valid after commit): ids are 0 .. object_count() - 1.
+    int32_t object_count() const { return object_count_; }
+    /// Scene::materials index of an object's shape (-1: none or an invalid id). O(log n).
+    int object_material(int32_t object_id) const;
+    /// The top level's meshes, spheres and disks with their object ids (after commit).
+    std::vector<TopLevelShape> top_level_shapes() const;
 
     /// World-space bounds of everything (valid after commit).
     Vec3f bounds_min() const { return bmin_; }
@@ -92,6 +117,11 @@ class Geometry {
     const std::vector<std::unique_ptr<TriangleMesh>> &top_level_meshes() const;
 
   private:
+    /// Fills `si` from an Embree hit of `ray` (the ray in render space; t, ids and barycentrics
+    /// as Embree returns them). Shared by intersect and intersect8.
+    void fill_hit(const Ray &ray, float t, unsigned geom_id, unsigned prim_id, unsigned inst_id,
+                  float u, float v, SurfaceInteraction &si) const;
+
     RTCDevice device_ = nullptr;
     std::vector<std::unique_ptr<GeometryGroup>> groups_;
     struct InstanceRec {
@@ -100,6 +130,9 @@ class Geometry {
     };
     std::vector<InstanceRec> instances_;  // indexed by the instance's geomID in the top level
     std::vector<int> instance_geom_to_rec_;
+    /// First object id of each top-level Embree geometry (by geomID; ascending).
+    std::vector<int32_t> object_base_;
+    int32_t object_count_ = 0;
     Vec3f bmin_, bmax_;
     size_t triangle_count_ = 0, instance_count_ = 0;
 };

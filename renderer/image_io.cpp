@@ -11,6 +11,7 @@
 #include <cerrno>
 #include <cstring>
 #include <filesystem>
+#include <fstream>
 #include <stdexcept>
 #include <system_error>
 
@@ -191,6 +192,14 @@ void check_output_path(const std::string &path, const std::string &what,
                                        dir.string() + "; the file may need up to " +
                                        format_bytes(expected_bytes));
     }
+}
+
+void write_text_atomically(const std::string &path, const std::string &text) {
+    write_atomically(path, [&](const std::string &tmp) {
+        std::ofstream f(tmp, std::ios::binary);
+        f << text;
+        if (!f) throw std::runtime_error(path + ": cannot write");
+    });
 }
 
 void write_exr(const std::string &path, uint32_t width, uint32_t height,

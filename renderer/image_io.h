@@ -96,6 +96,9 @@ std::string temp_path_for(const std::string &path);
 void write_atomically(const std::string &path,
                       const std::function<void(const std::string &temp_path)> &write);
 
+/// Writes `text` to `path` atomically (write_atomically). Throws std::runtime_error.
+void write_text_atomically(const std::string &path, const std::string &text);
+
 /// Checks before a long render that `path` will be writable by write_atomically: its folder
 /// exists and accepts a new file (a probe file is created there and removed), and `path` is
 /// not a directory. Devices and FIFOs are accepted as they are. `what` names the output in

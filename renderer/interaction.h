@@ -70,6 +70,9 @@ struct SurfaceInteraction {
     Vec3f wo;             ///< unit direction toward the ray origin
     float t = 0;          ///< ray parameter of the hit
     int material = -1;    ///< index into Scene::materials (-1: none, "interface")
+    /// Stable id of the shape hit (Geometry::object_material maps it back): one per triangle
+    /// mesh, sphere or disk, and one per (instance, prototype shape) pair.
+    int32_t object_id = -1;
     const Light *area_light = nullptr;  ///< emitter of this surface, if any
     // Screen-space derivatives for texture filtering (pbrt-v4 Camera::Approximate_dp_dxy).
     Vec3f dpdx, dpdy;

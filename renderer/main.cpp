@@ -1,4 +1,4 @@
-// The `tessera` command line: render, diff.
+// The `tessera` command line: render, samplers, diff, converge.
 //
 // Exit codes: 0 success, 2 bad input (with "file:line: message"), 1 internal error.
 #include <CLI/CLI.hpp>
@@ -7,6 +7,7 @@
 #include <iostream>
 #include <regex>
 
+#include "renderer/converge.h"
 #include "renderer/diff.h"
 #include "renderer/image_io.h"
 #include "renderer/render.h"
@@ -23,6 +24,63 @@ bool parse_resolution(const std::string &s, int *w, int *h) {
     *w = std::stoi(m[1]);
     *h = std::stoi(m[2]);
     return *w > 0 && *h > 0;
+}
+
+/// `tessera converge` and the command-line values that need conversion afterwards.
+struct ConvergeCli {
+    tessera::ConvergeOptions options;
+    std::string resolution;
+    int spp = 0, max_depth = -1;
+    long long seed = -1;
+    CLI::App *command = nullptr;
+};
+
+void add_converge_command(CLI::App &app, ConvergeCli &c) {
+    tessera::ConvergeOptions &o = c.options;
+    c.command = app.add_subcommand(
+        "converge", "Error against time of several samplers for the same time budget");
+    CLI::App *cmd = c.command;
+    cmd->add_option("scene", o.scene, "Scene file")->required();
+    cmd->add_option("-o,--output", o.output_dir, "Output folder (created if missing)")->required();
+    // Vector options: one value per occurrence (repeat the flag), so that a positional
+    // argument after them is not swallowed.
+    cmd->add_option("--sampler", o.samplers,
+                    "Sampler to run, repeatable: uniform | adaptive[:error=E,min-spp=N,...] "
+                    "(default: uniform and adaptive)")
+        ->allow_extra_args(false);
+    cmd->add_option("--time", o.time_s, "Wall-clock budget per sampler, seconds")
+        ->required()
+        ->check(CLI::PositiveNumber);
+    cmd->add_option("--snapshots", o.snapshots, "Snapshots per sampler, log-spaced (default 8)")
+        ->check(CLI::PositiveNumber);
+    cmd->add_option("--first-snapshot", o.first_snapshot_s,
+                    "Time of the first snapshot, seconds (default: --time / 32)")
+        ->check(CLI::PositiveNumber);
+    cmd->add_option("--reference", o.reference,
+                    "Reference EXR (default: render one and cache it)");
+    cmd->add_option("--reference-spp", o.reference_spp,
+                    "Samples per pixel of a rendered reference (default 4096)")
+        ->check(CLI::PositiveNumber);
+    cmd->add_option("--cache-dir", o.cache_dir,
+                    "Reference cache (default $XDG_CACHE_HOME/tessera or ~/.cache/tessera)");
+    cmd->add_option("--resolution", c.resolution, "Film resolution WxH (overrides the scene)");
+    cmd->add_option("--threads", o.threads, "Worker threads (default: all cores)");
+    cmd->add_option("--spp", c.spp, "Cap on samples per pixel (default: none, time decides)")
+        ->check(CLI::PositiveNumber);
+    cmd->add_option("--max-depth", c.max_depth, "Maximum path depth (overrides the scene)")
+        ->check(CLI::NonNegativeNumber);
+    cmd->add_option("--seed", c.seed, "Sequence seed")->check(CLI::NonNegativeNumber);
+    cmd->add_option("--metric", o.metric,
+                    "Error of the headline table: mse | relmse | rmse | mae (default relmse)");
+    cmd->add_option("--target-error", o.target_errors,
+                    "Error level(s) of the headline table, repeatable (default: from the curves)")
+        ->allow_extra_args(false);
+    cmd->add_flag("--no-report", [&o](int64_t) { o.report = false; },
+                  "Do not run scripts/convergence_report.py (report.html)");
+    cmd->add_option("--report-script", o.report_script, "Report script to run instead");
+    cmd->add_option("--ocio-config", o.display.config_path, "OpenColorIO config for the PNGs");
+    cmd->add_option("--exposure", o.display.exposure_stops, "PNG exposure in stops");
+    cmd->add_flag("-q,--quiet", o.quiet, "No progress lines");
 }
 
 }  // namespace
@@ -58,8 +116,15 @@ int main(int argc, char **argv) {
         ->check(CLI::NonNegativeNumber);
     std::string sampler_spec = "adaptive";
     render->add_option("--sampler", sampler_spec,
-                       "uniform | adaptive[:error=E,min-spp=N,max-pass-spp=N,split-factor=F] "
-                       "(default adaptive)");
+                       "NAME[:key=value,...]: uniform | adaptive (default) | fixed | jin | kim | "
+                       "fliptri | flipquad | suffern; `tessera samplers` lists their keys");
+    render->add_option("--integrator", ro.integrator,
+                       "path | whitted (default: path; whitted for the real-time samplers)");
+    render->add_option("--frames", ro.frames,
+                       "Real-time samplers: frames to render (statistics over all of them)")
+        ->check(CLI::PositiveNumber);
+    render->add_option("--orbit", ro.orbit_deg,
+                       "Real-time samplers: orbit the camera by DEGREES over the frames");
     uint32_t min_spp = 0;
     render->add_option("--min-spp", min_spp,
                        "Samples per pixel of the uniform first pass (default 16)")
@@ -88,10 +153,16 @@ int main(int argc, char **argv) {
     render->add_option("--exposure", ro.display.exposure_stops, "PNG exposure in stops");
     render->add_flag("-q,--quiet", ro.quiet, "No progress bar or summary");
 
+    CLI::App *samplers =
+        app.add_subcommand("samplers", "List the sampler plugins with their keys and defaults");
+
     std::string diff_a, diff_b;
     CLI::App *diff = app.add_subcommand("diff", "Compare two images: MSE, RMSE, relMSE, PSNR, means");
     diff->add_option("test", diff_a, "Image to test")->required();
     diff->add_option("reference", diff_b, "Reference image")->required();
+
+    ConvergeCli converge;
+    add_converge_command(app, converge);
 
     try {
         app.parse(argc, argv);
@@ -102,6 +173,28 @@ int main(int argc, char **argv) {
 
     try {
         if (*diff) return tessera::run_diff(diff_a, diff_b, std::cout, std::cerr);
+        if (*samplers) {
+            std::cout << tessera::sampling::format_plugin_list();
+            return 0;
+        }
+        if (*converge.command) {
+            tessera::ConvergeOptions &o = converge.options;
+            if (!converge.resolution.empty()) {
+                int w, h;
+                if (!parse_resolution(converge.resolution, &w, &h)) {
+                    std::fprintf(stderr, "tessera: --resolution: expected WxH, got \"%s\"\n",
+                                 converge.resolution.c_str());
+                    return 2;
+                }
+                o.overrides.width = w;
+                o.overrides.height = h;
+            }
+            if (converge.spp > 0) o.overrides.spp = converge.spp;
+            if (converge.max_depth >= 0) o.overrides.max_depth = converge.max_depth;
+            if (converge.seed >= 0) o.overrides.seed = uint32_t(converge.seed);
+            tessera::run_converge(o);
+            return 0;
+        }
         if (*render) {
             if (!resolution.empty()) {
                 int w, h;

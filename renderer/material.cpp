@@ -13,9 +13,16 @@ namespace {
 
 /// Roughness parameters shared by conductor, dielectric and coateddiffuse: "roughness", or
 /// "uroughness"/"vroughness" (which win), remapped to GGX alpha when "remaproughness" is true.
+/// True for a texture that varies over the surface (not a constant); false for null.
+template <class Tex>
+bool varying(const Tex *t) {
+    return t != nullptr && !t->constant_value();
+}
+
 struct Roughness {
     const FloatTexture *u = nullptr, *v = nullptr;
     bool remap = true;
+    bool varying() const { return tessera::varying(u) || tessera::varying(v); }
 
     /// `prefix`: "" for most materials, "conductor." for coatedconductor's base.
     static Roughness from(const ParamSet &ps, TextureSet &tex, const std::string &prefix = "") {
@@ -54,7 +61,7 @@ class DiffuseMaterial final : public Material {
         return Bsdf(frame(si, tc), b);
     }
     uint8_t possible_flags() const override { return kBxdfReflection | kBxdfDiffuse; }
-    bool textured() const override { return true; }
+    bool reads_texture() const override { return !constant_; }
     std::string describe() const override { return "diffuse"; }
 
     static Rgb clamp_unit(Rgb c) {
@@ -88,7 +95,9 @@ class ConductorMaterial final : public Material {
     uint8_t possible_flags() const override {
         return kBxdfReflection | kBxdfGlossy | kBxdfSpecular;
     }
-    bool textured() const override { return true; }
+    bool reads_texture() const override {
+        return varying(eta_) || varying(k_) || varying(reflectance_) || rough_.varying();
+    }
     std::string describe() const override { return "conductor"; }
 
   private:
@@ -109,7 +118,7 @@ class DielectricMaterial final : public Material {
     uint8_t possible_flags() const override {
         return kBxdfReflection | kBxdfTransmission | kBxdfSpecular | kBxdfGlossy;
     }
-    bool textured() const override { return true; }
+    bool reads_texture() const override { return rough_.varying(); }
     std::string describe() const override { return "dielectric eta " + std::to_string(eta_); }
 
   private:
@@ -130,7 +139,7 @@ class ThinDielectricMaterial final : public Material {
     uint8_t possible_flags() const override {
         return kBxdfReflection | kBxdfTransmission | kBxdfSpecular;
     }
-    bool textured() const override { return false; }
+    bool reads_texture() const override { return false; }
     std::string describe() const override { return "thindielectric eta " + std::to_string(eta_); }
 
   private:
@@ -155,7 +164,10 @@ class CoatedDiffuseMaterial final : public Material {
     uint8_t possible_flags() const override {
         return kBxdfReflection | kBxdfDiffuse | kBxdfGlossy | kBxdfSpecular;
     }
-    bool textured() const override { return true; }
+    bool reads_texture() const override {
+        return varying(reflectance_) || varying(albedo_) || varying(thickness_) || varying(g_) ||
+               rough_.varying();
+    }
     std::string describe() const override { return "coateddiffuse"; }
 
   private:
@@ -172,7 +184,7 @@ class InterfaceMaterial final : public Material {
         return std::nullopt;
     }
     uint8_t possible_flags() const override { return 0; }
-    bool textured() const override { return false; }
+    bool reads_texture() const override { return false; }
     std::string describe() const override { return "interface"; }
 };
 
@@ -207,7 +219,9 @@ class MixMaterial final : public Material {
     uint8_t possible_flags() const override {
         return uint8_t((a_ ? a_->possible_flags() : 0) | (b_ ? b_->possible_flags() : 0));
     }
-    bool textured() const override { return true; }
+    bool reads_texture() const override {
+        return varying(amount_) || (a_ && a_->textured()) || (b_ && b_->textured());
+    }
     std::string describe() const override { return "mix"; }
 
   private:

@@ -31,8 +31,9 @@ class Material {
                                          const TextureEvalContext &tc) const = 0;
     /// Union of the lobes this material can produce (BxdfFlags), for SceneFeatures.
     virtual uint8_t possible_flags() const = 0;
-    /// True if the material reads a non-constant texture.
-    virtual bool textured() const = 0;
+    /// True if the material reads a non-constant texture (its parameters, or a bump or normal
+    /// map): what the real-time modes' "texture existence" attribute reports.
+    bool textured() const { return bumped() || reads_texture(); }
     virtual std::string describe() const = 0;
 
     /// Sets pbrt's "displacement" texture: bump mapping of the shading normal.
@@ -41,6 +42,9 @@ class Material {
     void set_normal_map(std::shared_ptr<const struct NormalMapImage> map) { normal_map_ = map; }
 
   protected:
+    /// True if a parameter of the material is a non-constant texture.
+    virtual bool reads_texture() const = 0;
+    bool bumped() const { return displacement_ != nullptr || normal_map_ != nullptr; }
     /// The shading frame at `si`: from the shading normal and dpdu, bump-mapped when the
     /// material has a displacement texture (pbrt-v4 BumpMap: finite differences of the
     /// displacement over half the uv footprint, or 0.0005 without one; the displacement times

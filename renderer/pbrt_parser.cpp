@@ -467,6 +467,7 @@ Param Parser::parse_param(Tokenizer &tok, const Token &decl, const std::string &
                         throw SceneError(p.loc, "spectrum \"" + s +
                                                     "\" is neither a named spectrum nor a "
                                                     "readable file (" + why + ")");
+                    scene_.read_files.push_back(path);
                     Tokenizer st(text, path);
                     while (std::optional<Token> t = st.next()) {
                         std::optional<double> d = to_number(*t);
@@ -708,6 +709,7 @@ void Parser::parse(Tokenizer &tok, const std::string &dir, int depth) {
                 throw SceneError(loc, d + " \"" + name + "\" includes itself (" + chain +
                                           name + ")");
             }
+            scene_.read_files.push_back(path);
             include_stack_.push_back({id, path});
             Tokenizer sub(std::move(text), path);
             parse(sub, dir_of(path), depth + 1);

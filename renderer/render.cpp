@@ -13,6 +13,8 @@
 #include "renderer/checkpoint.h"
 #include "renderer/image_io.h"
 #include "renderer/path_integrator.h"
+#include "renderer/realtime.h"
+#include "renderer/whitted_integrator.h"
 #include "sampling/adaptive_error.h"
 
 namespace tessera {
@@ -82,23 +84,10 @@ void accumulate(sched::AdaptiveStats &total, const sched::AdaptiveStats &s) {
             : 0.0;
 }
 
-double parse_double(const std::string &key, const std::string &v) {
-    size_t pos = 0;
-    double d = 0;
-    try {
-        d = std::stod(v, &pos);
-    } catch (const std::exception &) {
-        pos = 0;
-    }
-    if (pos != v.size() || !std::isfinite(d) || d < 0)
-        throw SceneError("--sampler: \"" + key + "\" expects a non-negative number, got \"" + v +
-                         "\"");
-    return d;
-}
-
 }  // namespace
 
 std::string SamplerSpec::describe() const {
+    if (is_frame()) return plugin.describe();
     std::ostringstream os;
     os << name;
     if (name == "adaptive") {
@@ -112,34 +101,20 @@ std::string SamplerSpec::describe() const {
 
 SamplerSpec parse_sampler_spec(const std::string &text) {
     SamplerSpec spec;
-    size_t colon = text.find(':');
-    spec.name = text.substr(0, colon);
-    if (spec.name != "uniform" && spec.name != "adaptive")
-        throw SceneError("--sampler: unknown sampler \"" + spec.name +
-                         "\" (available: uniform, adaptive)");
-    if (colon == std::string::npos) return spec;
-    std::stringstream ss(text.substr(colon + 1));
-    std::string item;
-    while (std::getline(ss, item, ',')) {
-        if (item.empty()) continue;
-        size_t eq = item.find('=');
-        if (eq == std::string::npos)
-            throw SceneError("--sampler " + spec.name + ": expected key=value, got \"" + item +
-                             "\"");
-        std::string key = item.substr(0, eq), value = item.substr(eq + 1);
-        if (spec.name == "adaptive" && key == "error") {
-            spec.error = parse_double(key, value);
-        } else if (key == "min-spp" || key == "min_spp") {
-            spec.min_spp = uint32_t(std::max(1.0, parse_double(key, value)));
-        } else if (key == "max-pass-spp") {
-            spec.max_pass_spp = uint32_t(parse_double(key, value));
-        } else if (spec.name == "adaptive" && key == "split-factor") {
-            spec.split_factor = std::max(1.0, parse_double(key, value));
-        } else if (spec.name == "adaptive" && key == "min-extent") {
-            spec.min_extent = std::max(1.0, parse_double(key, value));
-        } else {
-            throw SceneError("--sampler " + spec.name + ": unknown key \"" + key + "\"");
-        }
+    try {
+        spec.plugin = sampling::parse_plugin_spec(text);
+    } catch (const std::invalid_argument &e) {
+        throw SceneError(std::string("--sampler:0: ") + e.what());
+    }
+    const sampling::PluginParams &p = spec.plugin.params;
+    spec.name = spec.plugin.info->name;
+    if (spec.is_frame()) return spec;
+    if (p.is_set("min-spp")) spec.min_spp = uint32_t(p.get("min-spp"));
+    spec.max_pass_spp = uint32_t(p.get("max-pass-spp"));
+    if (spec.name == "adaptive") {
+        if (p.is_set("error")) spec.error = p.get("error");
+        spec.split_factor = p.get("split-factor");
+        spec.min_extent = p.get("min-extent");
     }
     return spec;
 }
@@ -186,6 +161,19 @@ sched::AdaptiveStats render_scene(const Scene &scene, sampling::Film &film, uint
     return scheduler.render(cancel);
 }
 
+std::unique_ptr<SampleSource> make_integrator(const Scene &scene, const std::string &name) {
+    if (name == "path")
+        return std::make_unique<PathIntegrator>(scene, scene.settings.seed,
+                                                scene.settings.max_depth);
+    if (name == "whitted") {
+        WhittedOptions wo;
+        wo.max_depth = scene.settings.max_depth;
+        wo.seed = scene.settings.seed;
+        return make_whitted_integrator(scene, wo);
+    }
+    throw SceneError("--integrator:0: unknown integrator \"" + name + "\" (path, whitted)");
+}
+
 RenderReport run_render(const RenderOptions &opt) {
     RenderReport rep;
     auto t0 = std::chrono::steady_clock::now();
@@ -221,8 +209,18 @@ RenderReport run_render(const RenderOptions &opt) {
     // Ctrl-C writes a checkpoint even without --checkpoint: check its folder too.
     check_output_path(checkpoint, "the checkpoint", pixels * 27 * 4);
 
-    sampling::Film film(uint32_t(scene->settings.width), uint32_t(scene->settings.height));
     SamplerSpec sampler = opt.sampler;
+    if (sampler.is_frame()) {
+        if (!opt.resume.empty() || !opt.checkpoint.empty() || opt.checkpoint_every > 0)
+            throw SceneError("--sampler:0: " + sampler.name +
+                             " renders whole frames; --checkpoint, --checkpoint-every and "
+                             "--resume apply to the progressive samplers only");
+        SignalGuard guard;
+        run_frames(opt, *scene, sampler, exr, opt.write_png ? png : "",
+                   display ? &*display : nullptr, &g_cancel, rep);
+        return rep;
+    }
+    sampling::Film film(uint32_t(scene->settings.width), uint32_t(scene->settings.height));
     if (opt.min_spp) sampler.min_spp = *opt.min_spp;
     if (opt.error) sampler.error = *opt.error;
     sched::AdaptiveOptions so = scheduler_options(*scene, sampler, opt.threads, opt.quiet);
@@ -248,7 +246,8 @@ RenderReport run_render(const RenderOptions &opt) {
         elapsed_before = prev.elapsed_s;
     }
 
-    PathIntegrator integrator(*scene, scene->settings.seed, scene->settings.max_depth);
+    std::unique_ptr<SampleSource> integrator =
+        make_integrator(*scene, opt.integrator.empty() ? "path" : opt.integrator);
     auto t_render = std::chrono::steady_clock::now();
     {
         SignalGuard guard;
@@ -265,16 +264,18 @@ RenderReport run_render(const RenderOptions &opt) {
             if (opt.checkpoint_every > 0)
                 chunk.time_s = chunk.time_s > 0 ? std::min(chunk.time_s, opt.checkpoint_every)
                                                  : opt.checkpoint_every;
-            sched::AdaptiveScheduler scheduler(integrator, film, chunk);
+            sched::AdaptiveScheduler scheduler(*integrator, film, chunk);
             sched::AdaptiveStats s = scheduler.render(&g_cancel);
             accumulate(rep.stats, s);
             rep.passes_total = s.first_pass + s.passes;
             rep.stats.passes = rep.passes_total;
-            so.start_pass = int64_t(rep.passes_total);
+            // The next chunk (and a checkpoint) resumes at the first pass some tile has not
+            // finished, not after the furthest quadrant's: the others would never catch up.
+            so.start_pass = int64_t(s.resume_pass);
             bool chunk_timeout = s.out_of_time && opt.checkpoint_every > 0 &&
                                  !(opt.time_s > 0 && seconds_since(t_render) >= opt.time_s);
             if (chunk_timeout) {
-                cs.passes = rep.passes_total;
+                cs.passes = uint32_t(so.start_pass);
                 cs.elapsed_s = elapsed_before + seconds_since(t_render);
                 // A failed periodic checkpoint (disk full for a moment) must not throw away
                 // the render: warn, keep rendering, try again at the next one.
@@ -298,11 +299,11 @@ RenderReport run_render(const RenderOptions &opt) {
     auto t_out = std::chrono::steady_clock::now();
     // The per-pixel error estimate (Dammertz) as an AOV beside the sample count.
     sampling::ErrorImage errors;
-    sampling::compute_errors(film, sampling::PixelRect{0, 0, int(film.width()), int(film.height())},
+    sampling::compute_errors(film, sampling::PixelBounds{0, 0, int(film.width()), int(film.height())},
                              so.min_samples_for_error, errors);
     ExrWriteOptions eo;
     eo.half = opt.half;
-    cs.passes = rep.passes_total;
+    cs.passes = so.start_pass >= 0 ? uint32_t(so.start_pass) : rep.passes_total;
     cs.elapsed_s = elapsed_before + seconds_since(t_render);
     try {
         write_film_exr(exr, film, eo, {ImageLayer{"error", {"Y"}, errors.error, true}});

@@ -3,24 +3,35 @@
 #pragma once
 
 #include <atomic>
+#include <memory>
 #include <optional>
 #include <string>
 
 #include "renderer/color.h"
 #include "renderer/scene.h"
 #include "sampling/film.h"
+#include "sampling/pixel_sampler.h"
 #include "scheduler/adaptive_scheduler.h"
 
 namespace tessera {
 
 /// Default region error target of the adaptive sampler (Dammertz e_b; see
-/// sampling/region_tree.h). Chosen with the benchmark in scripts/bench_adaptive.sh.
+/// sampling/region_tree.h). Chosen with scripts/bench_adaptive.py (now `tessera converge`).
 inline constexpr double kDefaultErrorTarget = 0.001;
 
-/// A sampler selection: `uniform`, or `adaptive[:key=value,...]` with keys error, min-spp,
-/// max-pass-spp, split-factor, min-extent.
+/// A sampler selection: any registered plugin (sampling/pixel_sampler.h; `tessera samplers`
+/// lists them), e.g. `uniform`, `adaptive[:error=E,min-spp=N,...]` (progressive, run by the
+/// adaptive scheduler) or `jin:tau_col=0.6` (a real-time frame plugin). For the progressive
+/// samplers the fields below hold the parsed values.
 struct SamplerSpec {
     std::string name = "adaptive";
+    /// The parsed plugin and all its parameters (defaults filled in). Empty info: "adaptive"
+    /// with defaults (a default-constructed spec).
+    sampling::PluginSpec plugin;
+    /// True for real-time frame plugins (fixed, jin, kim, fliptri, flipquad, suffern).
+    bool is_frame() const {
+        return plugin.info && plugin.info->kind == sampling::PluginKind::Frame;
+    }
     std::optional<double> error;
     std::optional<uint32_t> min_spp;
     uint32_t max_pass_spp = 64;
@@ -32,8 +43,9 @@ struct SamplerSpec {
     std::string describe() const;
 };
 
-/// Parses "NAME[:key=value,...]". Throws SceneError ("--sampler: ...") naming the sampler and
-/// the key for an unknown sampler or key, or a bad value.
+/// Parses "NAME[:key=value,...]" against the plugin registry. Throws SceneError
+/// ("--sampler:0: sampler NAME: ...") naming the sampler and the key for an unknown sampler or
+/// key, or a bad value.
 SamplerSpec parse_sampler_spec(const std::string &text);
 
 /// Everything `tessera render` takes on the command line.
@@ -56,6 +68,11 @@ struct RenderOptions {
     bool write_png = true;
     DisplayOptions display;         ///< --ocio-config, --view, --display, --exposure
     bool quiet = false;             ///< no progress bar and no summary
+    /// --integrator: "path" or "whitted"; "" = path for progressive samplers, whitted for the
+    /// real-time frame plugins (they compare neighbours, so noise must not look like an edge).
+    std::string integrator;
+    uint32_t frames = 1;            ///< --frames: frames to render with a frame plugin
+    double orbit_deg = 0;           ///< --orbit: camera orbit over all frames, degrees
 };
 
 /// What a render produced (for the stats JSON and tests).
@@ -68,6 +85,10 @@ struct RenderReport {
     double mean_spp = 0;
     size_t film_bytes_per_pixel = 0;
     size_t peak_rss_bytes = 0;
+    // Frame plugins (real-time loop):
+    std::vector<double> frame_ms;   ///< wall time of every frame
+    double rays_per_pixel = 0;      ///< last frame: rays traced / pixels
+    double active_fraction = 0;     ///< last frame: fraction of (sub)pixels found active
 };
 
 /// The EXR and PNG paths for a requested output name: "x.exr" -> (x.exr, x.png); a name with
@@ -82,6 +103,10 @@ sched::AdaptiveOptions scheduler_options(const Scene &scene, const SamplerSpec &
 /// `cancel` may stop it early.
 sched::AdaptiveStats render_scene(const Scene &scene, sampling::Film &film, uint32_t threads,
                                   double time_s, bool quiet, const std::atomic<bool> *cancel);
+
+/// The integrator called `name` ("path" or "whitted") for `scene`. Throws SceneError for an
+/// unknown name.
+std::unique_ptr<SampleSource> make_integrator(const Scene &scene, const std::string &name);
 
 /// Runs the whole `tessera render` command. Throws SceneError on bad input (exit code 2) and
 /// std::exception on internal errors (exit code 1).

@@ -181,6 +181,9 @@ struct SceneDesc {
     std::map<std::string, ObjectDesc> objects;
     std::vector<InstanceDesc> instances;
     std::string main_file;
+    /// Files the parser read besides the main file (Include/Import files and spectrum files),
+    /// as opened, in reading order; with repeats. Scene content hashes use it (reference.h).
+    std::vector<std::string> read_files;
 };
 
 }  // namespace tessera

@@ -32,7 +32,7 @@ float pixel_error(const PixelStats &st, uint32_t min_samples) {
     return float(num / std::sqrt(denom2));
 }
 
-void compute_errors(const Film &film, PixelRect region, uint32_t min_samples, ErrorImage &out) {
+void compute_errors(const Film &film, PixelBounds region, uint32_t min_samples, ErrorImage &out) {
     const int w = int(film.width()), h = int(film.height());
     if (out.width != w || out.height != h || out.error.size() != size_t(w) * size_t(h)) {
         out.width = w;
@@ -56,7 +56,7 @@ double region_error(const ErrorImage &errors, const FloatRect &region, double im
     const double y0 = std::max(region.y0, 0.0), y1 = std::min(region.y1, double(errors.height));
     if (!(x1 > x0) || !(y1 > y0))
         return 0.0;
-    const PixelRect p = FloatRect{x0, y0, x1, y1}.outward();
+    const PixelBounds p = FloatRect{x0, y0, x1, y1}.outward();
     double sum = 0;
     for (int y = p.y0; y < p.y1; ++y) {
         const double cy = std::min(y1, double(y + 1)) - std::max(y0, double(y));

@@ -42,7 +42,7 @@ float pixel_error(const PixelStats &stats, uint32_t min_samples);
 /// pixel set to +inf first (so allocate once and reuse). Pixels outside `region` are untouched.
 /// Thread-safe for disjoint regions once `out` has the film's size, as long as the film's
 /// pixels in `region` are not being written.
-void compute_errors(const Film &film, PixelRect region, uint32_t min_samples, ErrorImage &out);
+void compute_errors(const Film &film, PixelBounds region, uint32_t min_samples, ErrorImage &out);
 
 /// Region error e_b of the float rectangle `region` (pixel units, clipped to the error image):
 /// e_b = (r / N) * sum_p c_p e_p, with c_p in [0, 1] the fraction of pixel p covered by the

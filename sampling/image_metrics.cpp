@@ -1,4 +1,4 @@
-// Image error metrics (MSE, RMSE, relMSE, PSNR, means) and box downsampling.
+// Image error metrics (MSE, RMSE, relMSE, PSNR, MAE, means) and box downsampling.
 #include "sampling/image_metrics.h"
 
 #include <algorithm>
@@ -28,9 +28,9 @@ void check_pair(const RgbImage &test, const RgbImage &ref) {
                                     std::to_string(ref.height));
 }
 
-// Accumulates per-channel sums of squared and relative squared errors.
+// Accumulates per-channel sums of squared, relative squared and absolute errors.
 struct ErrorSums {
-    std::array<double, 3> sq{}, rel{};
+    std::array<double, 3> sq{}, rel{}, abs{};
     size_t n = 0;
 };
 
@@ -44,6 +44,7 @@ ErrorSums error_sums(const RgbImage &test, const RgbImage &ref) {
             double d2 = (v - r) * (v - r);
             s.sq[c] += d2;
             s.rel[c] += d2 / (r * r + 0.01);
+            s.abs[c] += std::abs(v - r);
         }
     }
     return s;
@@ -94,6 +95,17 @@ ChannelMetric psnr(const RgbImage &test, const RgbImage &ref, double peak) {
     return psnr_from(mse(test, ref), peak);
 }
 
+ChannelMetric mae(const RgbImage &test, const RgbImage &ref) {
+    ErrorSums s = error_sums(test, ref);
+    return average(s.abs, s.n);
+}
+
+std::size_t nonfinite_count(const RgbImage &img) {
+    check_image(img, "image");
+    return std::size_t(std::count_if(img.data.begin(), img.data.end(),
+                                     [](float v) { return !std::isfinite(v); }));
+}
+
 std::array<double, 3> channel_means(const RgbImage &img) {
     check_image(img, "image");
     std::array<double, 3> m{};
@@ -112,6 +124,7 @@ ImageComparison compare_images(const RgbImage &test, const RgbImage &ref, double
     out.rmse = rmse_of(out.mse);
     out.rel_mse = average(s.rel, s.n);
     out.psnr = psnr_from(out.mse, peak);
+    out.mae = average(s.abs, s.n);
     out.mean_test = channel_means(test);
     out.mean_ref = channel_means(ref);
     return out;

@@ -7,6 +7,7 @@
 //   relMSE_c = (1/N) sum (v - ref)^2 / (ref^2 + 0.01)   (pbrt-v4 imgtool's convention; the
 //              0.01 keeps dark pixels from dominating)
 //   PSNR_c   = 10 log10(peak^2 / MSE_c) in dB (+inf when MSE_c is 0)
+//   MAE_c    = (1/N) sum |v - ref|   (mean absolute error)
 // Sums run in double precision. Non-finite pixel values are not special-cased: they propagate.
 #pragma once
 
@@ -50,7 +51,7 @@ struct ChannelMetric {
 
 /// All metrics of a test image against a reference.
 struct ImageComparison {
-    ChannelMetric mse, rmse, rel_mse, psnr;
+    ChannelMetric mse, rmse, rel_mse, psnr, mae;
     std::array<double, 3> mean_test{}, mean_ref{};
 };
 
@@ -63,6 +64,10 @@ ChannelMetric rmse(const RgbImage &test, const RgbImage &ref);
 ChannelMetric rel_mse(const RgbImage &test, const RgbImage &ref);
 /// Peak signal-to-noise ratio in dB for the given peak value; +inf where MSE is 0.
 ChannelMetric psnr(const RgbImage &test, const RgbImage &ref, double peak = 1.0);
+/// Mean absolute error, |v - ref| averaged.
+ChannelMetric mae(const RgbImage &test, const RgbImage &ref);
+/// Number of values (not pixels) that are NaN or +-Inf. Thread-safe (pure).
+std::size_t nonfinite_count(const RgbImage &img);
 /// Mean of each channel (double precision); zeros for an empty image.
 std::array<double, 3> channel_means(const RgbImage &img);
 /// Every metric at once (one pass over the pixels for the MSE-like ones).

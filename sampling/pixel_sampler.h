@@ -18,6 +18,7 @@
 #pragma once
 
 #include <cstdint>
+#include <deque>
 #include <functional>
 #include <memory>
 #include <string>
@@ -78,7 +79,9 @@ struct FrameResult {
     uint32_t width = 0, height = 0;
     std::vector<Rgb> color;    ///< final pixel colours, row-major
     std::vector<float> rays;   ///< rays traced per pixel this frame (the rays-per-pixel heat map)
-    std::vector<FrameLayer> diagnostics;  ///< the paper's diagnostic images
+    /// The paper's diagnostic images. A deque, so that references returned by layer() stay
+    /// valid when later layers are added.
+    std::deque<FrameLayer> diagnostics;
     uint64_t samples = 0;      ///< camera samples evaluated (primary rays traced)
     uint64_t rays_total = 0;   ///< all rays traced (primary, shadow, reflection, refraction)
     uint64_t shaded = 0;       ///< attribute vectors shaded without a primary ray (`shade`)
@@ -87,9 +90,11 @@ struct FrameResult {
     /// extra work; `active_unit` names the unit.
     double active_fraction = 0;
     std::string active_unit = "pixels";
-    /// Clears and sizes every buffer for a w x h frame.
+    /// Clears and sizes every buffer for a w x h frame (existing diagnostic layers are kept,
+    /// zeroed, so that their memory is reused from frame to frame).
     void reset(uint32_t w, uint32_t h);
-    /// Adds (or returns the existing) zero-filled diagnostic layer `name`.
+    /// Adds (or returns the existing) zero-filled diagnostic layer `name`. The reference stays
+    /// valid until the next reset().
     FrameLayer &layer(const std::string &name);
 };
 

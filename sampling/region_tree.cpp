@@ -21,22 +21,22 @@ double area(const FloatRect &r) {
     return (r.x1 - r.x0) * (r.y1 - r.y0);
 }
 
-PixelRect intersect(const PixelRect &a, const PixelRect &b) {
+PixelBounds intersect(const PixelBounds &a, const PixelBounds &b) {
     return {std::max(a.x0, b.x0), std::max(a.y0, b.y0), std::min(a.x1, b.x1), std::min(a.y1, b.y1)};
 }
 
-bool contains(const PixelRect &outer, const PixelRect &inner) {
+bool contains(const PixelBounds &outer, const PixelBounds &inner) {
     return inner.x0 >= outer.x0 && inner.y0 >= outer.y0 && inner.x1 <= outer.x1 &&
            inner.y1 <= outer.y1;
 }
 
 }  // namespace
 
-PixelRect FloatRect::outward() const {
+PixelBounds FloatRect::outward() const {
     return {int(std::floor(x0)), int(std::floor(y0)), int(std::ceil(x1)), int(std::ceil(y1))};
 }
 
-RegionTree::RegionTree(PixelRect quadrant, PixelRect grown, double image_area)
+RegionTree::RegionTree(PixelBounds quadrant, PixelBounds grown, double image_area)
     : quadrant_(quadrant), grown_(grown), image_area_(image_area) {
     if (!(image_area > 0))
         throw std::invalid_argument("RegionTree: image_area must be > 0");
@@ -72,12 +72,31 @@ double interp(const std::vector<T> &t, int w, int h, double u, double v) {
 
 }  // namespace
 
+double RegionTree::table_x(double x) const {
+    const double d = x - grown_.x0;
+    if (cell_ == 1) return d;
+    const double span = double(grown_.width());
+    const double dc = std::clamp(d, 0.0, span);
+    const int i = std::min(int(dc / cell_), cols_ - 1);
+    const double start = double(i) * cell_;
+    return i + (dc - start) / std::min(double(cell_), span - start);
+}
+
+double RegionTree::table_y(double y) const {
+    const double d = y - grown_.y0;
+    if (cell_ == 1) return d;
+    const double span = double(grown_.height());
+    const double dc = std::clamp(d, 0.0, span);
+    const int j = std::min(int(dc / cell_), rows_ - 1);
+    const double start = double(j) * cell_;
+    return j + (dc - start) / std::min(double(cell_), span - start);
+}
+
 double RegionTree::integral(const FloatRect &r) const {
-    int w = grown_.width(), h = grown_.height();
-    double u0 = r.x0 - grown_.x0, u1 = r.x1 - grown_.x0;
-    double v0 = r.y0 - grown_.y0, v1 = r.y1 - grown_.y0;
-    double s = interp(sat_, w, h, u1, v1) - interp(sat_, w, h, u0, v1) -
-               interp(sat_, w, h, u1, v0) + interp(sat_, w, h, u0, v0);
+    const double u0 = table_x(r.x0), u1 = table_x(r.x1);
+    const double v0 = table_y(r.y0), v1 = table_y(r.y1);
+    double s = interp(sat_, cols_, rows_, u1, v1) - interp(sat_, cols_, rows_, u0, v1) -
+               interp(sat_, cols_, rows_, u1, v0) + interp(sat_, cols_, rows_, u0, v0);
     // Cancellation can leave a tiny negative value for a zero-error region.
     return std::max(s, 0.0);
 }
@@ -85,15 +104,17 @@ double RegionTree::integral(const FloatRect &r) const {
 bool RegionTree::has_unknown(const FloatRect &r) const {
     if (!any_unknown_)
         return false;
-    // The pixels with positive coverage are exactly those of the outward-rounded rectangle.
-    PixelRect p = intersect(r.outward(), grown_);
+    // The pixels with positive coverage are exactly those of the outward-rounded rectangle; the
+    // cells with positive coverage are those that contain one of them.
+    PixelBounds p = intersect(r.outward(), grown_);
     if (p.empty())
         return false;
-    size_t stride = size_t(grown_.width()) + 1;
-    auto at = [&](int x, int y) {
-        return int64_t(unknown_sat_[size_t(y - grown_.y0) * stride + size_t(x - grown_.x0)]);
-    };
-    return at(p.x1, p.y1) - at(p.x0, p.y1) - at(p.x1, p.y0) + at(p.x0, p.y0) > 0;
+    const int i0 = (p.x0 - grown_.x0) / cell_, j0 = (p.y0 - grown_.y0) / cell_;
+    const int i1 = std::min(cols_, (p.x1 - grown_.x0 + cell_ - 1) / cell_);
+    const int j1 = std::min(rows_, (p.y1 - grown_.y0 + cell_ - 1) / cell_);
+    size_t stride = size_t(cols_) + 1;
+    auto at = [&](int i, int j) { return int64_t(unknown_sat_[size_t(j) * stride + size_t(i)]); };
+    return at(i1, j1) - at(i0, j1) - at(i1, j0) + at(i0, j0) > 0;
 }
 
 // The split position along `axis` where the error integral of `r` is halved. H(t), the integral
@@ -108,14 +129,12 @@ double RegionTree::split_position(const FloatRect &r, int axis, double total) co
     // cum(t) = F(t, r.hi') - F(t, r.lo') - base, with F the bilinear-interpolated table and
     // primes the other axis; base (the lower edge's terms) is computed once, so an evaluation
     // costs 2 interpolations instead of 4.
-    const int w = grown_.width(), h = grown_.height();
-    const double o = axis == 0 ? grown_.x0 : grown_.y0;
-    const double q0 = axis == 0 ? r.y0 - grown_.y0 : r.x0 - grown_.x0;
-    const double q1 = axis == 0 ? r.y1 - grown_.y0 : r.x1 - grown_.x0;
+    const int w = cols_, h = rows_;
+    const double q0 = axis == 0 ? table_y(r.y0) : table_x(r.x0);
+    const double q1 = axis == 0 ? table_y(r.y1) : table_x(r.x1);
     auto strip = [&](double t) {
-        const double u = t - o;
-        return axis == 0 ? interp(sat_, w, h, u, q1) - interp(sat_, w, h, u, q0)
-                         : interp(sat_, w, h, q1, u) - interp(sat_, w, h, q0, u);
+        return axis == 0 ? interp(sat_, w, h, table_x(t), q1) - interp(sat_, w, h, table_x(t), q0)
+                         : interp(sat_, w, h, q1, table_y(t)) - interp(sat_, w, h, q0, table_y(t));
     };
     const double base = strip(lo);
     auto cum = [&](double t) { return strip(t) - base; };
@@ -171,6 +190,9 @@ size_t RegionTree::rebuild(const ErrorImage &errors, const RegionTreeParams &par
     nodes_.clear();
     built_ = true;
     any_unknown_ = false;
+    cell_ = 1;
+    cols_ = grown_.width();
+    rows_ = grown_.height();
     if (grown_.empty())
         return 0;
 
@@ -242,6 +264,10 @@ size_t RegionTree::rebuild(const ErrorImage &errors, const RegionTreeParams &par
         }
     }
 
+    return build_root();
+}
+
+size_t RegionTree::build_root() {
     if (nodes_.capacity() < 256)
         nodes_.reserve(256);
     Node root;
@@ -249,6 +275,44 @@ size_t RegionTree::rebuild(const ErrorImage &errors, const RegionTreeParams &par
     nodes_.push_back(root);
     build(0, 0);
     return nodes_.size();
+}
+
+size_t RegionTree::rebuild_cells(const CellErrorImage &cells, const RegionTreeParams &params) {
+    const int c = cells.cell;
+    if (!grown_.empty() &&
+        (c < 1 || cells.cols != (grown_.width() + c - 1) / c ||
+         cells.rows != (grown_.height() + c - 1) / c ||
+         cells.sum.size() < size_t(cells.cols) * size_t(cells.rows) ||
+         cells.unknown.size() < size_t(cells.cols) * size_t(cells.rows)))
+        throw std::invalid_argument(
+            "RegionTree::rebuild_cells: the cell grid does not cover the grown rectangle");
+    params_ = params;
+    nodes_.clear();
+    built_ = true;
+    any_unknown_ = false;
+    cell_ = std::max(1, c);
+    cols_ = cells.cols;
+    rows_ = cells.rows;
+    if (grown_.empty())
+        return 0;
+    const size_t stride = size_t(cols_) + 1;
+    sat_.assign(stride * (size_t(rows_) + 1), 0.0);
+    unknown_sat_.assign(sat_.size(), 0u);
+    for (int j = 0; j < rows_; ++j) {
+        double acc = 0;
+        uint32_t uacc = 0;
+        for (int i = 0; i < cols_; ++i) {
+            const size_t k = size_t(j) * size_t(cols_) + size_t(i);
+            const double v = cells.sum[k];
+            acc += (v > 0 && v < kInf) ? v : 0.0;
+            uacc += cells.unknown[k];
+            sat_[size_t(j + 1) * stride + size_t(i + 1)] = sat_[size_t(j) * stride + size_t(i + 1)] + acc;
+            unknown_sat_[size_t(j + 1) * stride + size_t(i + 1)] =
+                unknown_sat_[size_t(j) * stride + size_t(i + 1)] + uacc;
+        }
+    }
+    any_unknown_ = unknown_sat_.back() > 0;
+    return build_root();
 }
 
 void RegionTree::build(int n, int depth) {
@@ -308,11 +372,11 @@ bool RegionTree::complete() const {
     return nodes_.empty() || nodes_[0].complete;
 }
 
-void RegionTree::collect(int n, const PixelRect &tile, std::vector<PixelRect> &out) const {
+void RegionTree::collect(int n, const PixelBounds &tile, std::vector<PixelBounds> &out) const {
     const Node &node = nodes_[size_t(n)];
     if (node.complete)
         return;
-    PixelRect r = intersect(node.bounds.outward(), tile);
+    PixelBounds r = intersect(node.bounds.outward(), tile);
     if (r.empty())
         return;
     if (node.is_leaf()) {
@@ -323,9 +387,9 @@ void RegionTree::collect(int n, const PixelRect &tile, std::vector<PixelRect> &o
     collect(node.child[1], tile, out);
 }
 
-void RegionTree::active_rects(const PixelRect &tile, std::vector<PixelRect> &out) const {
+void RegionTree::active_rects(const PixelBounds &tile, std::vector<PixelBounds> &out) const {
     out.clear();
-    PixelRect t = intersect(tile, quadrant_);
+    PixelBounds t = intersect(tile, quadrant_);
     if (t.empty())
         return;
     if (!built_) {
@@ -339,7 +403,7 @@ void RegionTree::active_rects(const PixelRect &tile, std::vector<PixelRect> &out
 
 namespace {
 /// Bits of `r` in the 8x8 mask of a tile with origin (ox, oy); r lies in the tile's first 8x8.
-uint64_t rect_bits(const PixelRect &r, int ox, int oy) {
+uint64_t rect_bits(const PixelBounds &r, int ox, int oy) {
     const int x0 = r.x0 - ox, width = r.x1 - r.x0;
     const uint64_t row = (width >= 8 ? uint64_t(0xff) : (uint64_t(1) << width) - 1) << x0;
     uint64_t bits = 0;
@@ -349,11 +413,11 @@ uint64_t rect_bits(const PixelRect &r, int ox, int oy) {
 }
 }  // namespace
 
-void RegionTree::collect_mask(int n, const PixelRect &clip, int ox, int oy, uint64_t &mask) const {
+void RegionTree::collect_mask(int n, const PixelBounds &clip, int ox, int oy, uint64_t &mask) const {
     const Node &node = nodes_[size_t(n)];
     if (node.complete)
         return;
-    PixelRect r = intersect(node.bounds.outward(), clip);
+    PixelBounds r = intersect(node.bounds.outward(), clip);
     if (r.empty())
         return;
     if (node.is_leaf()) {
@@ -364,11 +428,11 @@ void RegionTree::collect_mask(int n, const PixelRect &clip, int ox, int oy, uint
     collect_mask(node.child[1], clip, ox, oy, mask);
 }
 
-uint64_t RegionTree::active_mask(const PixelRect &tile) const {
+uint64_t RegionTree::active_mask(const PixelBounds &tile) const {
     // Clip to the tile's first 8x8 and to the quadrant; bits stay relative to the tile origin.
-    const PixelRect t8{tile.x0, tile.y0, std::min(tile.x1, tile.x0 + 8),
+    const PixelBounds t8{tile.x0, tile.y0, std::min(tile.x1, tile.x0 + 8),
                        std::min(tile.y1, tile.y0 + 8)};
-    const PixelRect clip = intersect(t8, quadrant_);
+    const PixelBounds clip = intersect(t8, quadrant_);
     if (clip.empty())
         return 0;
     if (!built_)
@@ -383,7 +447,7 @@ bool RegionTree::active_at(int n, int x, int y) const {
     const Node &node = nodes_[size_t(n)];
     if (node.complete)
         return false;
-    PixelRect r = node.bounds.outward();
+    PixelBounds r = node.bounds.outward();
     if (x < r.x0 || x >= r.x1 || y < r.y0 || y >= r.y1)
         return false;
     if (node.is_leaf())

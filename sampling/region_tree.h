@@ -30,20 +30,20 @@
 namespace tessera::sampling {
 
 /// Half-open integer pixel rectangle [x0, x1) x [y0, y1).
-struct PixelRect {
+struct PixelBounds {
     int x0 = 0, y0 = 0, x1 = 0, y1 = 0;
     int width() const { return x1 - x0; }
     int height() const { return y1 - y0; }
     long long area() const { return (long long)width() * height(); }
     bool empty() const { return x1 <= x0 || y1 <= y0; }
-    bool operator==(const PixelRect &o) const = default;
+    bool operator==(const PixelBounds &o) const = default;
 };
 
 /// Floating-point rectangle in pixel units (a pixel (x, y) covers [x, x+1) x [y, y+1)).
 struct FloatRect {
     double x0 = 0, y0 = 0, x1 = 0, y1 = 0;
     /// The smallest pixel rectangle containing this one (bounds rounded outward).
-    PixelRect outward() const;
+    PixelBounds outward() const;
 };
 
 /// Per-pixel error image of a whole film: `error[y * width + x]`, +inf where unknown.
@@ -51,6 +51,16 @@ struct ErrorImage {
     int width = 0, height = 0;
     std::vector<float> error;
     float at(int x, int y) const { return error[size_t(y) * size_t(width) + size_t(x)]; }
+};
+
+/// Error summed over square cells of `cell` x `cell` pixels (the scheduler's 8x8 tiles) that
+/// tile a tree's grown rectangle from its top-left corner; the last column and row of cells may
+/// be narrower (cut at the rectangle's edge). The coarse input of RegionTree::rebuild_cells.
+struct CellErrorImage {
+    int cell = 8;               ///< cell edge in pixels (>= 1)
+    int cols = 0, rows = 0;     ///< ceil(grown width / cell) x ceil(grown height / cell)
+    std::vector<double> sum;    ///< finite, non-negative pixel errors summed per cell, row-major
+    std::vector<uint32_t> unknown;  ///< pixels per cell without an error estimate
 };
 
 /// Parameters of the stopping rule.
@@ -70,7 +80,8 @@ struct RegionTreeParams {
 ///
 /// Before the first rebuild() every pixel of the quadrant is active (nothing is known yet).
 /// Memory: a summed-area table of the grown rectangle is kept between rebuilds (8 bytes per
-/// pixel, plus 4 bytes per pixel while some pixel has no error estimate).
+/// pixel, plus 4 bytes per pixel while some pixel has no error estimate; per cell instead of
+/// per pixel after rebuild_cells).
 class RegionTree {
   public:
     struct Node {
@@ -87,13 +98,21 @@ class RegionTree {
     /// clamped to the image (the root's bounds for error computation); `image_area` in pixels
     /// (of the whole image, for the r factor). Throws std::invalid_argument unless `grown`
     /// contains `quadrant` and image_area > 0.
-    RegionTree(PixelRect quadrant, PixelRect grown, double image_area);
+    RegionTree(PixelBounds quadrant, PixelBounds grown, double image_area);
 
     /// Rebuilds from scratch from the error image (which covers the whole film; only the
     /// pixels of grown() are read; +inf or NaN = no estimate, negative values count as 0).
     /// Returns the number of nodes. Throws std::invalid_argument if `errors` does not cover
     /// grown() (the tree is then unchanged). Needs the writer lock.
     size_t rebuild(const ErrorImage &errors, const RegionTreeParams &params);
+
+    /// Rebuilds from per-cell error sums over grown() (the scheduler's per-tile sums): the same
+    /// tree as rebuild() would build from a pixel error image that is constant inside every
+    /// cell, at O(cells) instead of O(pixels) for the table. Inside a cell the error is taken
+    /// as uniform, so integrals over float rectangles and split positions interpolate linearly
+    /// inside cells; a region touching a cell with an unknown pixel stays open. Throws
+    /// std::invalid_argument when the cell grid does not cover grown() (the tree is unchanged).
+    size_t rebuild_cells(const CellErrorImage &cells, const RegionTreeParams &params);
 
     /// True when every leaf is complete (nothing left to sample in this quadrant). False before
     /// the first rebuild unless the quadrant is empty.
@@ -104,7 +123,7 @@ class RegionTree {
     /// pixel where a split falls inside a pixel; callers must not sample a pixel twice — use
     /// `pixel_active`, or sample the union). Empty when the tile is inside completed regions.
     /// Allocation-free once `out` has capacity.
-    void active_rects(const PixelRect &tile, std::vector<PixelRect> &out) const;
+    void active_rects(const PixelBounds &tile, std::vector<PixelBounds> &out) const;
 
     /// True if pixel (x, y) lies in the quadrant and in the outward-rounded bounds of an
     /// incomplete leaf (a pixel only partly covered by an incomplete leaf is active).
@@ -114,11 +133,11 @@ class RegionTree {
     /// (y - tile.y0) * 8 + (x - tile.x0) is set iff pixel_active(x, y). 0 when the tile lies in
     /// completed regions (skip it). The union of active_rects without duplicates, in one
     /// traversal; allocation-free. Tiles larger than 8x8 are truncated to their first 8x8.
-    uint64_t active_mask(const PixelRect &tile) const;
+    uint64_t active_mask(const PixelBounds &tile) const;
 
     const std::vector<Node> &nodes() const { return nodes_; }
-    const PixelRect &quadrant() const { return quadrant_; }
-    const PixelRect &grown() const { return grown_; }
+    const PixelBounds &quadrant() const { return quadrant_; }
+    const PixelBounds &grown() const { return grown_; }
     /// Error of the root region (the quadrant's error estimate).
     double root_error() const { return nodes_.empty() ? 0.0 : nodes_[0].error; }
     /// Number of leaves, and of those the incomplete ones (0, 0 before the first rebuild).
@@ -130,15 +149,20 @@ class RegionTree {
     std::string describe() const;
 
   private:
+    size_t build_root();
+    /// Pixel coordinate -> table coordinate along an axis (cells of cell_ pixels, the last one
+    /// possibly narrower): linear inside each cell.
+    double table_x(double x) const;
+    double table_y(double y) const;
     double integral(const FloatRect &r) const;
     bool has_unknown(const FloatRect &r) const;
     double split_position(const FloatRect &r, int axis, double total) const;
     void build(int node, int depth);
-    void collect(int node, const PixelRect &tile, std::vector<PixelRect> &out) const;
-    void collect_mask(int node, const PixelRect &clip, int ox, int oy, uint64_t &mask) const;
+    void collect(int node, const PixelBounds &tile, std::vector<PixelBounds> &out) const;
+    void collect_mask(int node, const PixelBounds &clip, int ox, int oy, uint64_t &mask) const;
     bool active_at(int node, int x, int y) const;
 
-    PixelRect quadrant_, grown_;
+    PixelBounds quadrant_, grown_;
     double image_area_ = 1;
     std::vector<Node> nodes_;
     bool built_ = false;
@@ -147,6 +171,8 @@ class RegionTree {
     // (width + 1) x (height + 1), of the finite error and of the count of unknown pixels.
     std::vector<double> sat_;
     std::vector<uint32_t> unknown_sat_;
+    int cell_ = 1;                 ///< table cell edge in pixels (1: per-pixel table)
+    int cols_ = 0, rows_ = 0;      ///< table cells: (cols_ + 1) x (rows_ + 1) entries
     bool any_unknown_ = false;
 };
 

@@ -21,12 +21,22 @@ struct CameraSample {
 
 /// Geometry attributes of one ray-surface hit, as the real-time papers collect them (Kim et al.
 /// 2013 "ray-attribute vector"; Jin et al. 2009 Table 1).
+///
+/// A ray that escaped has object_id -1 and carries its unit direction in `position` (shade()
+/// looks the environment up there). A secondary record with no ray behind it (the first hit
+/// is not specular, or the depth limit is 0) has object_id -1 and position zero.
 struct SurfaceAttributes {
-    int32_t object_id = -1;  ///< stable id of the shape hit; -1: the ray escaped
-    Vec3f position;          ///< world-space hit point
-    Vec3f normal;            ///< unit shading normal, world space
-    /// Bit i set: the hit point is in shadow with respect to light i (lights 0..31; lights beyond
-    /// 31 share bit 31).
+    int32_t object_id = -1;  ///< stable id of the shape hit (one per mesh, sphere, disk and
+                             ///< instanced shape); -1: no hit (see above)
+    Vec3f position;          ///< world-space hit point; escaped: the unit ray direction
+    /// Unit shading normal, world space, facing the viewer (the camera for the primary hit,
+    /// the ray's origin for the secondary one); on one-sided emitters it stays on the emitting
+    /// side, so that shading knows whether the emitter is seen from its back.
+    Vec3f normal;
+    /// Bit i set: the hit point is in shadow with respect to light i of Scene::lights (lights
+    /// 0..31; lights beyond 31 share bit 31, set when any of them is blocked). Only lights that
+    /// would light the point are tested: a light behind the surface or outside a spot cone
+    /// leaves its bit 0.
     uint32_t shadow_bits = 0;
     Vec2f uv;                  ///< surface texture coordinates
     bool has_texture = false;  ///< the material reads a texture at this hit
@@ -39,9 +49,12 @@ struct SurfaceAttributes {
 /// (the Whitted integrator); `SampleSource::shade` turns an (interpolated) vector into a colour.
 struct HitAttributes {
     SurfaceAttributes primary;    ///< first hit of the primary ray
-    SurfaceAttributes secondary;  ///< first hit of the first reflection/refraction ray
-    Rgb global_color;             ///< radiance via specular reflection/refraction (GCOL)
-    Rgb local_color;              ///< the rest: direct light and emission at the first hit
+    /// First hit of the first reflection/refraction ray (for a dielectric, of the stronger of
+    /// the two).
+    SurfaceAttributes secondary;
+    Rgb global_color;  ///< radiance via specular reflection/refraction (GCOL)
+    Rgb local_color;   ///< the rest: direct light and emission at the first hit
+    // Sample::radiance == local_color + global_color (in film units, before any clamp).
 };
 
 /// One evaluated sample: radiance and the AOVs the film keeps.

@@ -157,7 +157,7 @@ class AdaptiveProgress {
 
 struct AdaptiveScheduler::Quadrant {
     explicit Quadrant(uint32_t stripes) : locks(stripes) {}
-    sampling::PixelRect rect, grown;
+    sampling::PixelBounds rect, grown;
     std::vector<uint32_t> tiles;  // Morton indices of its tiles
     // Double-buffered tree: readers use trees[active] under their stripe's shared lock; the
     // rebuild writes trees[1 - active], which no reader can be using (see rebuild_quadrant).
@@ -172,9 +172,9 @@ struct AdaptiveScheduler::Quadrant {
     // for the swap. Everything below up to the atomics is guarded by it (or belongs to the
     // calling thread in deterministic mode).
     std::mutex rebuild_mutex;
-    // Copy of the snapshot over [0, grown.x1) x [0, grown.y1) (the tree indexes the error image
-    // in image coordinates; the part left of / above `grown` is unused).
-    sampling::ErrorImage errors;
+    // The per-tile error sums over `grown` (a union of whole tiles: the quadrant split and the
+    // one-tile margin fall on tile boundaries), the input of RegionTree::rebuild_cells.
+    sampling::CellErrorImage cells;
     uint32_t rebuilds = 0;
     double rebuild_ms_sum = 0, rebuild_ms_max = 0;
     // Read by other quadrants' progress updates.
@@ -218,7 +218,7 @@ struct AdaptiveScheduler::WorkerState {
     uint64_t samples = 0, rays = 0, tiles_rendered = 0, tiles_skipped = 0, pixels_skipped = 0;
     double reader_wait_s = 0, writer_wait_s = 0, tile_wait_s = 0, render_s = 0, rebuild_s = 0;
     uint64_t coalesced_rebuilds = 0;
-    std::vector<sampling::PixelRect> rects;
+    std::vector<sampling::PixelBounds> rects;
     std::array<uint8_t, kTilePixels> active{};
     std::array<uint32_t, kTilePixels> before{}, after{};
 
@@ -371,7 +371,7 @@ AdaptiveScheduler::AdaptiveScheduler(const SampleSource &source, sampling::Film 
     const double image_area = std::max(1.0, double(w) * double(h));
     for (int q = 0; q < 4; ++q) {
         auto quad = std::make_unique<Quadrant>(options_.lock_stripes);
-        sampling::PixelRect r;
+        sampling::PixelBounds r;
         r.x0 = (q & 1) ? sx : 0;
         r.x1 = (q & 1) ? iw : sx;
         r.y0 = (q & 2) ? sy : 0;
@@ -393,6 +393,12 @@ AdaptiveScheduler::AdaptiveScheduler(const SampleSource &source, sampling::Film 
         quadrants_[q]->tiles.push_back(uint32_t(t));
     }
     error_snapshot_ = std::make_unique<std::atomic<float>[]>(size_t(w) * h);
+    tile_error_sum_ = std::make_unique<std::atomic<double>[]>(tiles_.size());
+    tile_unknown_ = std::make_unique<std::atomic<uint32_t>[]>(tiles_.size());
+    tiles_x_ = tiles_x;
+    tile_at_.assign(size_t(tiles_x) * tiles_y, 0);
+    for (size_t t = 0; t < tiles_.size(); ++t)
+        tile_at_[size_t(tiles_[t].ty) * tiles_x + tiles_[t].tx] = uint32_t(t);
     tile_done_ = std::make_unique<std::atomic<uint32_t>[]>(tiles_.size());
 }
 
@@ -402,7 +408,7 @@ const sampling::RegionTree &AdaptiveScheduler::tree(int quadrant) const {
     return quadrants_.at(size_t(quadrant))->live();
 }
 
-sampling::PixelRect AdaptiveScheduler::quadrant_rect(int quadrant) const {
+sampling::PixelBounds AdaptiveScheduler::quadrant_rect(int quadrant) const {
     return quadrants_.at(size_t(quadrant))->rect;
 }
 
@@ -433,6 +439,24 @@ void AdaptiveScheduler::init_error_snapshot() {
                                                     options_.min_samples_for_error);
             error_snapshot_[size_t(y) * w + x].store(e, std::memory_order_relaxed);
         }
+    for (size_t t = 0; t < tiles_.size(); ++t) publish_tile_error(t);
+}
+
+void AdaptiveScheduler::publish_tile_error(size_t t) {
+    const Tile &tile = tiles_[t];
+    const uint32_t w = film_.width();
+    double sum = 0;
+    uint32_t unknown = 0;
+    for (uint32_t y = tile.y0; y < tile.y1; ++y)
+        for (uint32_t x = tile.x0; x < tile.x1; ++x) {
+            const float e = error_snapshot_[size_t(y) * w + x].load(std::memory_order_relaxed);
+            if (e < kInfF)
+                sum += double(std::max(e, 0.f));
+            else
+                ++unknown;  // +inf or NaN: no estimate
+        }
+    tile_error_sum_[t].store(sum, std::memory_order_relaxed);
+    tile_unknown_[t].store(unknown, std::memory_order_relaxed);
 }
 
 void AdaptiveScheduler::process_tile(size_t t, uint32_t pass, RenderContext &ctx, WorkerState &ws) {
@@ -464,10 +488,10 @@ void AdaptiveScheduler::process_tile(size_t t, uint32_t pass, RenderContext &ctx
         const uint32_t s = quad.locks.index(tile.tx, tile.ty);
         ws.reader_wait_s += quad.locks.lock_shared(s);
         quad.live().active_rects(
-            sampling::PixelRect{int(tile.x0), int(tile.y0), int(tile.x1), int(tile.y1)}, ws.rects);
+            sampling::PixelBounds{int(tile.x0), int(tile.y0), int(tile.x1), int(tile.y1)}, ws.rects);
         quad.locks.unlock_shared(s);
         std::fill_n(ws.active.begin(), n, uint8_t(0));
-        for (const sampling::PixelRect &r : ws.rects) {
+        for (const sampling::PixelBounds &r : ws.rects) {
             int x0 = std::max(r.x0, int(tile.x0)), x1 = std::min(r.x1, int(tile.x1));
             int y0 = std::max(r.y0, int(tile.y0)), y1 = std::min(r.y1, int(tile.y1));
             for (int y = y0; y < y1; ++y)
@@ -476,7 +500,7 @@ void AdaptiveScheduler::process_tile(size_t t, uint32_t pass, RenderContext &ctx
         }
     }
 
-    bool any_active = false;
+    bool any_active = false, any_new_error = false;
     uint64_t samples = 0, rays = 0;
     for (uint32_t i = 0; i < n; ++i) {
         const uint32_t px = tile.x0 + i % tw, py = tile.y0 + i / tw;
@@ -497,11 +521,15 @@ void AdaptiveScheduler::process_tile(size_t t, uint32_t pass, RenderContext &ctx
             film_.add_sample(px, py, index, s);
         }
         ws.after[i] = std::max(first, target);
-        if (adaptive_ && target > first)
+        if (adaptive_ && target > first) {
             error_snapshot_[size_t(py) * film_.width() + px].store(
                 sampling::pixel_error(film_.pixel_stats(px, py), options_.min_samples_for_error),
                 std::memory_order_relaxed);
+            any_new_error = true;
+        }
     }
+    if (any_new_error)
+        publish_tile_error(t);
     if (any_active)
         ++ws.tiles_rendered;
     else
@@ -534,27 +562,33 @@ void AdaptiveScheduler::rebuild_quadrant(int q, RenderContext &ctx, WorkerState 
     if (quad.rect.empty())
         return;
     auto t0 = Clock::now();
+    // Gather the per-tile error sums of the grown rectangle (tile aligned at its top-left
+    // corner; its right and bottom edge are tile boundaries or the image edge); sum the
+    // quadrant's own tiles for the progress estimate.
     const uint32_t w = film_.width(), h = film_.height();
-    const sampling::PixelRect &g = quad.grown, &r = quad.rect;
-    sampling::ErrorImage &errors = quad.errors;
-    if (errors.width != g.x1 || errors.height != g.y1) {
-        errors.width = g.x1;
-        errors.height = g.y1;
-        errors.error.assign(size_t(g.x1) * size_t(g.y1), kInfF);
-    }
-    // Copy the grown rectangle out of the atomic snapshot; sum the quadrant's own pixels for the
-    // progress estimate.
+    const sampling::PixelBounds &g = quad.grown, &r = quad.rect;
+    const int ts = int(kTileSize);
+    sampling::CellErrorImage &cells = quad.cells;
+    cells.cell = ts;
+    cells.cols = (g.width() + ts - 1) / ts;
+    cells.rows = (g.height() + ts - 1) / ts;
+    cells.sum.resize(size_t(cells.cols) * size_t(cells.rows));
+    cells.unknown.resize(cells.sum.size());
     double sum = 0;
     uint64_t unknown = 0;
-    for (int y = g.y0; y < g.y1; ++y)
-        for (int x = g.x0; x < g.x1; ++x) {
-            float e = error_snapshot_[size_t(y) * w + size_t(x)].load(std::memory_order_relaxed);
-            errors.error[size_t(y) * size_t(g.x1) + size_t(x)] = e;
-            if (x >= r.x0 && x < r.x1 && y >= r.y0 && y < r.y1) {
-                if (e < kInfF)
-                    sum += double(std::max(e, 0.f));
-                else
-                    ++unknown;
+    for (int j = 0; j < cells.rows; ++j)
+        for (int i = 0; i < cells.cols; ++i) {
+            const int tx = g.x0 / ts + i, ty = g.y0 / ts + j;
+            const uint32_t t = tile_at_[size_t(ty) * tiles_x_ + size_t(tx)];
+            const double e = tile_error_sum_[t].load(std::memory_order_relaxed);
+            const uint32_t u = tile_unknown_[t].load(std::memory_order_relaxed);
+            const size_t k = size_t(j) * size_t(cells.cols) + size_t(i);
+            cells.sum[k] = e;
+            cells.unknown[k] = u;
+            const int px = tx * ts, py = ty * ts;
+            if (px >= r.x0 && px < r.x1 && py >= r.y0 && py < r.y1) {
+                sum += e;
+                unknown += u;
             }
         }
     sampling::RegionTreeParams params;
@@ -568,7 +602,7 @@ void AdaptiveScheduler::rebuild_quadrant(int q, RenderContext &ctx, WorkerState 
     // 64 locks held by one thread).
     const uint32_t idle = 1u - quad.active.load(std::memory_order_relaxed);
     sampling::RegionTree &next = quad.trees[idle];
-    next.rebuild(errors, params);
+    next.rebuild_cells(cells, params);
     const bool complete = next.complete();
     quad.active.store(idle, std::memory_order_release);
     ws.writer_wait_s += quad.locks.sweep();
@@ -716,6 +750,7 @@ AdaptiveStats AdaptiveScheduler::render(const std::atomic<bool> *cancel) {
             ++p0;
     }
     stats.first_pass = uint32_t(std::min<uint64_t>(p0, std::numeric_limits<uint32_t>::max()));
+    stats.resume_pass = stats.first_pass;
     ctx.first_pass = p0;
     ctx.pass_end = n_passes;
     const size_t n_tiles = tiles_.size();
@@ -752,14 +787,18 @@ AdaptiveStats AdaptiveScheduler::render(const std::atomic<bool> *cancel) {
             for (int q = 0; q < 4; ++q) {
                 Quadrant &quad = *quadrants_[size_t(q)];
                 if (quad.rect.empty()) continue;
-                const sampling::PixelRect &g = quad.grown;
-                quad.errors.width = g.x1;
-                quad.errors.height = g.y1;
-                quad.errors.error.assign(size_t(g.x1) * size_t(g.y1), kInfF);
+                const sampling::PixelBounds &g = quad.grown;
+                const int ts = int(kTileSize);
+                sampling::CellErrorImage &cells = quad.cells;
+                cells.cell = ts;
+                cells.cols = (g.width() + ts - 1) / ts;
+                cells.rows = (g.height() + ts - 1) / ts;
+                cells.sum.assign(size_t(cells.cols) * size_t(cells.rows), 0.0);
+                cells.unknown.assign(cells.sum.size(), 1u);
                 sampling::RegionTreeParams warm;
                 warm.target = options_.error_target;
-                quad.trees[0].rebuild(quad.errors, warm);
-                quad.trees[1].rebuild(quad.errors, warm);
+                quad.trees[0].rebuild_cells(cells, warm);
+                quad.trees[1].rebuild_cells(cells, warm);
             }
             init_error_snapshot();
             // Resuming past the uniform start: the trees come from the film's samples.
@@ -828,6 +867,12 @@ AdaptiveStats AdaptiveScheduler::render(const std::atomic<bool> *cancel) {
         }
         main_ws.merge_into(ctx);
         ctx.progress->finish();
+        // tile_done_[t] is the next pass tile t needs (all workers have joined).
+        uint32_t resume = std::numeric_limits<uint32_t>::max();
+        for (size_t t = 0; t < n_tiles; ++t)
+            resume = std::min(resume, tile_done_[t].load(std::memory_order_acquire));
+        if (n_tiles > 0)
+            stats.resume_pass = resume;
     }
 
     const AdaptiveStats &t = ctx.totals;

@@ -31,15 +31,18 @@
 // previous rebuild still runs, the last thread out does not wait: the running rebuilder
 // rebuilds once more from the newest errors for all such requests (combining).
 //
-// Memory beyond the film: 4 bytes per pixel of atomic error snapshot, plus per quadrant an error
-// image over [0, grown.x1) x [0, grown.y1) (about 2.5 floats per pixel in all).
+// Memory beyond the film: 4 bytes per pixel of atomic error snapshot, plus 12 bytes per tile of
+// published tile error sums, plus per quadrant two trees' summed-area tables over its tiles.
+// Rebuilds read one error sum per 8x8 tile (RegionTree::rebuild_cells), so a rebuild costs
+// O(tiles) instead of O(pixels): about 8k cells for a 1080p quadrant.
 //
 // Data-race freedom (the TSan job builds this with -DTESSERA_TSAN=ON):
 //  - film pixels are written only by the thread rendering their tile; the same tile of the next
 //    pass waits (std::atomic wait/notify on the tile's completed-pass counter) until this one is
 //    done, so a pixel never has two writers and its samples stay in index order;
 //  - the rebuild never reads the film: each tile publishes its pixels' Dammertz errors into an
-//    atomic per-pixel error snapshot after rendering them, and the rebuild copies the snapshot;
+//    atomic per-pixel error snapshot after rendering them and their sum into an atomic per-tile
+//    sum, and the rebuild reads the tile sums;
 //  - a tree copy is read only under a stripe's reader lock, and rewritten only after the writer
 //    swept every stripe since the copy stopped being the published one.
 // Trees may be stale when a thread starts a tile of the next pass before the quadrant's rebuild
@@ -126,6 +129,12 @@ struct AdaptiveStats {
     double wall_s = 0;            ///< wall time of render(), seconds
     uint32_t passes = 0;          ///< completed passes (the maximum over the quadrants)
     uint32_t first_pass = 0;      ///< absolute index of the first pass this call rendered
+    /// Absolute index of the first pass that some tile has not completed: where a later render()
+    /// of the same film must resume (AdaptiveOptions::start_pass). first_pass + passes when the
+    /// passes ran to completion; lower when the time budget or a cancel stopped a pass part-way
+    /// in the barrier-free mode (`passes` counts the furthest quadrant, whose tiles come first
+    /// in Morton order: resuming there would leave the other quadrants' pixels behind).
+    uint32_t resume_pass = 0;
     uint32_t threads = 0;         ///< worker threads
     bool cancelled = false;       ///< stopped by the cancel flag
     bool out_of_time = false;     ///< stopped by the time budget
@@ -203,7 +212,7 @@ class AdaptiveScheduler {
     /// The region tree of quadrant q (0..3). Not thread-safe against a running render().
     const sampling::RegionTree &tree(int quadrant) const;
     /// Pixel rectangle of quadrant q (may be empty).
-    sampling::PixelRect quadrant_rect(int quadrant) const;
+    sampling::PixelBounds quadrant_rect(int quadrant) const;
     /// The quadrant of the tile with Morton index t.
     uint32_t tile_quadrant(size_t t) const { return tile_quadrant_[t]; }
     /// The Morton-ordered tile list.
@@ -244,6 +253,14 @@ class AdaptiveScheduler {
     std::vector<std::unique_ptr<Quadrant>> quadrants_;
     // Last published Dammertz error of every pixel (see the file comment).
     std::unique_ptr<std::atomic<float>[]> error_snapshot_;
+    // Per tile (Morton index): the sum of its pixels' finite errors in the snapshot and the
+    // count of its pixels without an estimate, published by the tile after each visit. The
+    // rebuild reads these (one value per 8x8 tile), not the pixels.
+    std::unique_ptr<std::atomic<double>[]> tile_error_sum_;
+    std::unique_ptr<std::atomic<uint32_t>[]> tile_unknown_;
+    std::vector<uint32_t> tile_at_;  // tile grid (tx, ty) -> Morton index, row-major
+    uint32_t tiles_x_ = 0;
+    void publish_tile_error(size_t t);
     // Per tile: passes completed (absolute pass index + 1), for the tile-order wait.
     std::unique_ptr<std::atomic<uint32_t>[]> tile_done_;
 };

@@ -2,6 +2,9 @@
 
 #include <algorithm>
 #include <chrono>
+#include <condition_variable>
+#include <functional>
+#include <mutex>
 #include <thread>
 
 namespace tessera::sched {
@@ -13,10 +16,68 @@ double ms_since(Clock::time_point t0) {
 }
 }  // namespace
 
+// Persistent workers: a stage is published under the mutex as a new generation; every worker
+// (and the calling thread) drains the shared tile index, and the last one to finish wakes the
+// caller. Starting threads once per scheduler instead of once per stage matters for plugins with
+// many short stages (kim: 8 stages per frame).
+struct FrameScheduler::Pool {
+    std::mutex m;
+    std::condition_variable wake, done;
+    uint64_t generation = 0;
+    bool quit = false;
+    uint32_t running = 0;  // workers still inside the current stage
+    std::function<void()> job;
+    std::vector<std::thread> threads;
+
+    explicit Pool(uint32_t workers) {
+        for (uint32_t i = 0; i < workers; ++i)
+            threads.emplace_back([this] { loop(); });
+    }
+    ~Pool() {
+        {
+            std::lock_guard<std::mutex> l(m);
+            quit = true;
+        }
+        wake.notify_all();
+        for (std::thread &t : threads) t.join();
+    }
+    void loop() {
+        uint64_t seen = 0;
+        for (;;) {
+            std::function<void()> *j = nullptr;
+            {
+                std::unique_lock<std::mutex> l(m);
+                wake.wait(l, [&] { return quit || generation != seen; });
+                if (quit) return;
+                seen = generation;
+                j = &job;
+            }
+            (*j)();
+            std::lock_guard<std::mutex> l(m);
+            if (--running == 0) done.notify_one();
+        }
+    }
+    /// Runs `body` on every worker and the calling thread; returns when all are done.
+    void run(std::function<void()> body) {
+        {
+            std::lock_guard<std::mutex> l(m);
+            job = std::move(body);
+            running = uint32_t(threads.size());
+            ++generation;
+        }
+        wake.notify_all();
+        job();
+        std::unique_lock<std::mutex> l(m);
+        done.wait(l, [&] { return running == 0; });
+    }
+};
+
 FrameScheduler::FrameScheduler(FrameOptions options) : options_(options) {
     threads_ = options_.threads ? options_.threads
                                 : std::max(1u, std::thread::hardware_concurrency());
 }
+
+FrameScheduler::~FrameScheduler() = default;
 
 FrameTiming FrameScheduler::render(sampling::PixelSampler &sampler, const SampleSource &source,
                                    sampling::FrameResult &result,
@@ -28,11 +89,14 @@ FrameTiming FrameScheduler::render(sampling::PixelSampler &sampler, const Sample
         tiles_w_ = w;
         tiles_h_ = h;
     }
+    const uint32_t n = uint32_t(tiles_.size());
+    const uint32_t workers = std::max(1u, std::min(threads_, n));
+    if (workers > 1 && (!pool_ || pool_->threads.size() != workers - 1))
+        pool_ = std::make_unique<Pool>(workers - 1);
+
     FrameTiming timing;
     sampler.begin_frame(source);
     const int stages = sampler.stage_count();
-    const uint32_t n = uint32_t(tiles_.size());
-    const uint32_t workers = std::max(1u, std::min(threads_, n));
     for (int stage = 0; stage < stages; ++stage) {
         const auto t_stage = Clock::now();
         std::atomic<uint32_t> next{0};
@@ -49,15 +113,10 @@ FrameTiming FrameScheduler::render(sampling::PixelSampler &sampler, const Sample
                 sampler.run_tile(stage, sampling::PixelRect{t.x0, t.y0, t.x1, t.y1}, source);
             }
         };
-        if (workers == 1) {
+        if (workers == 1)
             work();
-        } else {
-            std::vector<std::thread> pool;
-            pool.reserve(workers - 1);
-            for (uint32_t k = 1; k < workers; ++k) pool.emplace_back(work);
-            work();
-            for (std::thread &t : pool) t.join();
-        }
+        else
+            pool_->run(work);
         sampler.end_stage(stage, source);
         timing.stage_names.push_back(sampler.stage_name(stage));
         timing.stage_ms.push_back(ms_since(t_stage));

@@ -2,11 +2,13 @@
 // Morton order, with a barrier after it and the plugin's serial end_stage (DESIGN.md, "The
 // PixelSampler plugin": barrier stages). Workers draw tiles from one atomic index, so tiles
 // start in Morton order on all threads; the frame's pixels do not depend on the thread count
-// as long as the plugin writes only its own tile's pixels in run_tile.
+// as long as the plugin writes only its own tile's pixels in run_tile. The worker threads are
+// started once per FrameScheduler and reused for every stage and frame.
 #pragma once
 
 #include <atomic>
 #include <cstdint>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -31,6 +33,9 @@ struct FrameTiming {
 class FrameScheduler {
   public:
     explicit FrameScheduler(FrameOptions options = {});
+    ~FrameScheduler();
+    FrameScheduler(const FrameScheduler &) = delete;
+    FrameScheduler &operator=(const FrameScheduler &) = delete;
     uint32_t threads() const { return threads_; }
 
     /// Renders one frame of `source` with `sampler` into `result`. `cancel` (may be null) is
@@ -45,6 +50,8 @@ class FrameScheduler {
     uint32_t threads_ = 1;
     uint32_t tiles_w_ = 0, tiles_h_ = 0;
     std::vector<Tile> tiles_;
+    struct Pool;                  // persistent worker threads (threads_ - 1 of them)
+    std::unique_ptr<Pool> pool_;
 };
 
 }  // namespace tessera::sched

@@ -3,6 +3,7 @@
 #
 #   scripts/setup.sh render   install dependencies, build (Release), render the example scene
 #   scripts/setup.sh test     install dependencies, build (Release), run the whole test suite
+#                             (with the quick convergence benchmark suite, ctest label report)
 #   scripts/setup.sh build    install dependencies and build only
 #
 # Environment: BUILD_DIR (default build), JOBS (default: number of cores), CTEST_ARGS (extra
@@ -23,6 +24,7 @@ packages=(
   libopenimageio-dev openimageio-tools libopenexr-dev libopencolorio-dev
   libassimp-dev libtinyobjloader-dev nlohmann-json3-dev libcli11-dev
   doctest-dev libbenchmark-dev
+  # scripts/convergence_report.py (tessera converge's report.html, the benchmark suite)
   python3 python3-numpy python3-matplotlib
   clang libclang-rt-dev
 )

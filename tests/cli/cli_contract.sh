@@ -234,9 +234,10 @@ sigint)
     # installs its handler: on a loaded machine a single early signal was lost and the render
     # ran on until the ctest timeout. Repeat the signal until the process exits.
     sleep 1.5
-    for _ in $(seq 120); do
+    for _ in $(seq 1 100); do
         kill -INT "$pid" 2>/dev/null || break
         sleep 0.5
+        kill -0 "$pid" 2>/dev/null || break
     done
     wait "$pid"
     rc=$?
@@ -250,6 +251,126 @@ sigint)
         --resume out.checkpoint.exr -q
     expect_rc 0
     [[ -s resumed.exr ]] || fail "resumed render wrote no image"
+    ;;
+samplers_list)
+    run samplers
+    expect_rc 0
+    for name in uniform adaptive fixed jin kim fliptri flipquad suffern; do
+        grep -Eq "^$name " stdout.txt || fail "tessera samplers does not list $name"
+    done
+    grep -Eq "tau_col=0.6" stdout.txt || fail "jin's tau_col default is not listed"
+    ;;
+bad_sampler_key)
+    # An unknown key is an error naming the plugin and the key, before anything is rendered.
+    write_good_scene scene.pbrt
+    run render scene.pbrt -o out.exr --stats out.json --sampler jin:tau_bogus=1 -q
+    expect_rc 2
+    expect_stderr_line "sampler jin: unknown key \"tau_bogus\""
+    expect_no_output out
+    run render scene.pbrt -o out.exr --stats out.json --sampler fixed:spp=1000 -q
+    expect_rc 2
+    expect_stderr_line "sampler fixed: spp=1000 is outside"
+    expect_no_output out
+    run render scene.pbrt -o out.exr --stats out.json --sampler nosuch -q
+    expect_rc 2
+    expect_stderr_line 'unknown sampler "nosuch"'
+    expect_no_output out
+    run render scene.pbrt -o out.exr --stats out.json --sampler fixed --integrator nosuch -q
+    expect_rc 2
+    expect_stderr_line 'unknown integrator "nosuch"'
+    expect_no_output out
+    ;;
+realtime_frames)
+    # A real-time sampler renders whole frames with the Whitted integrator and reports them.
+    write_good_scene scene.pbrt
+    run render scene.pbrt -o out.exr --stats out.json --sampler jin --frames 3 --orbit 20 -q
+    expect_rc 0
+    for f in out.exr out.png out.json; do [[ -s "$f" ]] || fail "$f was not written"; done
+    python3 - out.json <<'PY' || fail "frame stats JSON check failed"
+import json, math, sys
+s = json.load(open(sys.argv[1]))
+for k in ("frame_ms_median", "frame_ms_p95", "rays_per_pixel", "active_fraction"):
+    assert k in s and math.isfinite(s[k]), k
+assert s["frames"] == 3 and len(s["frame_ms"]) == 3, s["frames"]
+assert s["integrator"] == "whitted", s["integrator"]
+assert s["rays_per_pixel"] >= 1, s["rays_per_pixel"]
+assert 0 <= s["active_fraction"] <= 1, s["active_fraction"]
+assert "active_subpixels" in s["diagnostic_layers"], s["diagnostic_layers"]
+PY
+    ;;
+converge_good)
+    # Two samplers for 0.6 s each against a rendered (and cached) reference: exit 0, the CSV,
+    # the JSON and the images, the headline table on stdout, no temporaries.
+    write_good_scene scene.pbrt
+    run converge scene.pbrt --sampler uniform --sampler adaptive:error=0.01 --time 0.6 \
+        --snapshots 4 --reference-spp 32 --cache-dir cache --threads 2 -o out --no-report -q
+    expect_rc 0
+    for f in out/convergence.csv out/convergence.json out/images/reference.png \
+             out/images/0-uniform.exr out/images/1-adaptive-error-0.01.spp.pfm; do
+        [[ -s "$f" ]] || fail "$f was not written"
+    done
+    grep -q '^time to reach relMSE E' stdout.txt || fail "no headline table on stdout"
+    grep -Eq '^adaptive:error=0.01 ' stdout.txt || fail "the table has no adaptive row"
+    leftovers="$(find . -name '*.tmp-*' -print)"
+    [[ -z "$leftovers" ]] || fail "temporary files left behind: $leftovers"
+    python3 - out/convergence.json out/convergence.csv <<'PY' || fail "JSON/CSV check failed"
+import csv, json, math, sys
+j = json.load(open(sys.argv[1]))
+rows = list(csv.DictReader(open(sys.argv[2])))
+assert len(rows) == len(j["rows"]) >= 5, (len(rows), len(j["rows"]))
+assert {r["sampler"] for r in rows} == {"uniform", "adaptive:error=0.01"}
+for r in rows:
+    for k in ("mse", "relmse", "rmse", "mae", "time_s", "mean_spp"):
+        assert math.isfinite(float(r[k])), (k, r[k])
+assert len(j["scene_hash"]) == 32 and j["hardware_threads"] >= 1
+PY
+    ;;
+converge_cache)
+    # The reference is rendered once, reused while the scene is unchanged, rebuilt after an edit.
+    write_good_scene scene.pbrt
+    args=(--sampler uniform --time 0.2 --snapshots 2 --reference-spp 16 --cache-dir cache
+          --threads 2 --no-report)
+    run converge scene.pbrt "${args[@]}" -o a
+    expect_rc 0
+    expect_stderr_line 'reference rendered and cached'
+    run converge scene.pbrt "${args[@]}" -o b
+    expect_rc 0
+    expect_stderr_line 'reference reused from the cache'
+    echo '# an edit' >>scene.pbrt
+    run converge scene.pbrt "${args[@]}" -o c
+    expect_rc 0
+    expect_stderr_line 'reference rendered and cached'
+    [[ $(find cache -name 'ref-*.exr' | wc -l) -eq 2 ]] || fail "expected 2 cached references"
+    ;;
+converge_missing_reference)
+    write_good_scene scene.pbrt
+    # --sampler before the scene takes one value: the scene is still the positional argument.
+    run converge --sampler uniform scene.pbrt --reference nope.exr --time 1 -o out --no-report
+    expect_rc 2
+    expect_stderr_line '^nope\.exr:0: reference image not found'
+    [[ ! -e out ]] || fail "the output folder was created for a bad reference"
+    ;;
+converge_reference_size)
+    write_good_scene scene.pbrt
+    run render scene.pbrt -o ref.exr --resolution 8x8 --no-png -q
+    expect_rc 0
+    run converge scene.pbrt --reference ref.exr --time 1 -o out --no-report
+    expect_rc 2
+    expect_stderr_line '^ref\.exr:0: the reference is 8x8 but the renders are 16x16'
+    [[ ! -e out ]] || fail "the output folder was created for a bad reference"
+    ;;
+converge_reference_nan)
+    # A 16x16 PFM reference with one NaN pixel.
+    write_good_scene scene.pbrt
+    python3 -c "
+import struct
+v = [0.5] * (16 * 16 * 3)
+v[3 * (16 * 5 + 7)] = float('nan')
+open('ref.pfm', 'wb').write(b'PF\n16 16\n-1.0\n' + struct.pack('<%df' % len(v), *v))"
+    run converge scene.pbrt --reference ref.pfm --time 1 -o out --no-report
+    expect_rc 2
+    expect_stderr_line '^ref\.pfm:0: the reference has 1 non-finite values \(NaN or Inf\)'
+    [[ ! -e out ]] || fail "the output folder was created for a bad reference"
     ;;
 *)
     fail "unknown case"

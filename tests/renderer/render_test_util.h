@@ -18,6 +18,23 @@ inline std::unique_ptr<Scene> scene_from_string(const std::string &text,
     return build_scene(parse_pbrt_string(text, "test.pbrt", ""), ov);
 }
 
+/// pbrt-v4 text of a tiny scene's first part: camera at z = -3 looking at the origin, a
+/// w x h film, and a 1x1 quad area light (L = 4) at y = 1, facing down. Tests append the rest.
+inline std::string tiny_lit_scene_header(int w, int h) {
+    return "LookAt 0 0 -3  0 0 0  0 1 0\n"
+           "Camera \"perspective\" \"float fov\" [ 45 ]\n"
+           "Film \"rgb\" \"integer xresolution\" [ " + std::to_string(w) +
+           " ] \"integer yresolution\" [ " + std::to_string(h) + " ]\n"
+           "Sampler \"zsobol\" \"integer pixelsamples\" [ 4 ]\n"
+           "WorldBegin\n"
+           "AttributeBegin\n"
+           "  AreaLightSource \"diffuse\" \"rgb L\" [ 4 4 4 ]\n"
+           "  Shape \"trianglemesh\"\n"
+           "      \"point3 P\" [ -0.5 1 -0.5  0.5 1 -0.5  0.5 1 0.5  -0.5 1 0.5 ]\n"
+           "      \"integer indices\" [ 0 1 2  0 2 3 ]\n"
+           "AttributeEnd\n";
+}
+
 /// Renders a scene quietly and returns its mean image.
 inline sampling::RgbImage render_image(const Scene &scene, uint32_t threads = 0,
                                        sched::AdaptiveStats *stats = nullptr) {

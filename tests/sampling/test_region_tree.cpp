@@ -85,7 +85,7 @@ void check_partition(const RegionTree &t) {
     const auto &nodes = t.nodes();
     REQUIRE(!nodes.empty());
     const FloatRect root = nodes[0].bounds;
-    const PixelRect g = t.grown();
+    const PixelBounds g = t.grown();
     CHECK(root.x0 == g.x0);
     CHECK(root.y0 == g.y0);
     CHECK(root.x1 == g.x1);
@@ -116,8 +116,8 @@ void check_partition(const RegionTree &t) {
 }  // namespace
 
 TEST_CASE("FloatRect::outward rounds outward") {
-    CHECK(FloatRect{1.5, 2.0, 3.0, 4.25}.outward() == PixelRect{1, 2, 3, 5});
-    CHECK(FloatRect{-0.5, 0.0, 0.5, 1e-9}.outward() == PixelRect{-1, 0, 1, 1});
+    CHECK(FloatRect{1.5, 2.0, 3.0, 4.25}.outward() == PixelBounds{1, 2, 3, 5});
+    CHECK(FloatRect{-0.5, 0.0, 0.5, 1e-9}.outward() == PixelBounds{-1, 0, 1, 1});
 }
 
 TEST_CASE("construction, state before the first rebuild, describe") {
@@ -128,10 +128,10 @@ TEST_CASE("construction, state before the first rebuild, describe") {
     CHECK(!t.complete());
     CHECK(t.pixel_active(8, 0));
     CHECK(!t.pixel_active(7, 0));  // outside the quadrant
-    std::vector<PixelRect> rects;
+    std::vector<PixelBounds> rects;
     t.active_rects({4, 4, 12, 12}, rects);
     REQUIRE(rects.size() == 1);
-    CHECK(rects[0] == PixelRect{8, 4, 12, 8});
+    CHECK(rects[0] == PixelBounds{8, 4, 12, 8});
     // Columns 4..7 of rows 0..3 of the tile: 0xf0 in each of the first four bytes.
     CHECK(t.active_mask({4, 4, 12, 12}) == 0xf0f0f0f0ull);
     CHECK(t.active_mask({0, 0, 8, 8}) == 0);
@@ -157,7 +157,7 @@ TEST_CASE("uniform low error: one complete root") {
     // e_b = e * sqrt(A_b / A_image).
     CHECK(t.root_error() == doctest::Approx(0.001 * std::sqrt(40.0 * 32 / (64 * 48))));
     CHECK(!t.pixel_active(0, 0));
-    std::vector<PixelRect> rects{{1, 1, 2, 2}};
+    std::vector<PixelBounds> rects{{1, 1, 2, 2}};
     t.active_rects({0, 0, 8, 8}, rects);
     CHECK(rects.empty());
 }
@@ -169,8 +169,8 @@ TEST_CASE("random error images: leaves partition the root; errors match the refe
         ErrorImage img = random_image(w, h, seed);
         // Alternate between a whole-image tree and a quadrant with a clamped grown rectangle.
         const bool whole = seed % 2 == 0;
-        PixelRect quad = whole ? PixelRect{0, 0, w, h} : PixelRect{48, 0, 96, 32};
-        PixelRect grown = whole ? quad : PixelRect{40, 0, 96, 40};
+        PixelBounds quad = whole ? PixelBounds{0, 0, w, h} : PixelBounds{48, 0, 96, 32};
+        PixelBounds grown = whole ? quad : PixelBounds{40, 0, 96, 40};
         RegionTree t(quad, grown, double(w) * h);
         RegionTreeParams p;
         p.target = 0.004;
@@ -295,7 +295,7 @@ TEST_CASE("an unknown pixel keeps its region open and unsplit") {
 TEST_CASE("active_rects and pixel_active agree with the leaves") {
     const int w = 96, h = 72;
     ErrorImage img = random_image(w, h, 3);
-    const PixelRect quad{48, 32, 96, 72}, grown{40, 24, 96, 72};
+    const PixelBounds quad{48, 32, 96, 72}, grown{40, 24, 96, 72};
     RegionTree t(quad, grown, double(w) * h);
     RegionTreeParams p;
     p.target = 0.004;
@@ -312,7 +312,7 @@ TEST_CASE("active_rects and pixel_active agree with the leaves") {
             bool expect = false;
             if (x >= quad.x0 && x < quad.x1 && y >= quad.y0 && y < quad.y1)
                 for (const auto &l : ls) {
-                    PixelRect r = l.bounds.outward();
+                    PixelBounds r = l.bounds.outward();
                     if (!l.complete && x >= r.x0 && x < r.x1 && y >= r.y0 && y < r.y1)
                         expect = true;
                 }
@@ -324,14 +324,14 @@ TEST_CASE("active_rects and pixel_active agree with the leaves") {
 
     // Over 8x8 tiles (offset so some straddle the quadrant's edge): the union of active_rects is
     // exactly the set of active pixels of the tile, and every rect lies in tile ∩ quadrant.
-    std::vector<PixelRect> rects;
+    std::vector<PixelBounds> rects;
     int skipped = 0;
     for (int ty = 28; ty < h; ty += 8)
         for (int tx = 44; tx < w; tx += 8) {
-            const PixelRect tile{tx, ty, tx + 8, ty + 8};
+            const PixelBounds tile{tx, ty, tx + 8, ty + 8};
             t.active_rects(tile, rects);
             std::set<std::pair<int, int>> from_rects;
-            for (const PixelRect &r : rects) {
+            for (const PixelBounds &r : rects) {
                 CHECK(!r.empty());
                 CHECK(r.x0 >= std::max(tile.x0, quad.x0));
                 CHECK(r.y0 >= std::max(tile.y0, quad.y0));
@@ -404,10 +404,113 @@ TEST_CASE("split clamping and depth limits") {
     CHECK(t.rebuild(img, p) == 1);
 }
 
+namespace {
+
+/// Per-cell sums of an error image over `grown` (cells of c x c pixels from its corner).
+CellErrorImage cells_of(const ErrorImage &img, const PixelBounds &grown, int c) {
+    CellErrorImage cells;
+    cells.cell = c;
+    cells.cols = (grown.width() + c - 1) / c;
+    cells.rows = (grown.height() + c - 1) / c;
+    cells.sum.assign(size_t(cells.cols) * size_t(cells.rows), 0.0);
+    cells.unknown.assign(cells.sum.size(), 0u);
+    for (int y = grown.y0; y < grown.y1; ++y)
+        for (int x = grown.x0; x < grown.x1; ++x) {
+            size_t k = size_t((y - grown.y0) / c) * size_t(cells.cols) + size_t((x - grown.x0) / c);
+            float e = img.error[size_t(y) * size_t(img.width) + size_t(x)];
+            if (e < kInfF)
+                cells.sum[k] += std::max(0.0, double(e));
+            else
+                ++cells.unknown[k];
+        }
+    return cells;
+}
+
+void check_same_tree(const RegionTree &a, const RegionTree &b) {
+    REQUIRE(a.nodes().size() == b.nodes().size());
+    for (size_t i = 0; i < a.nodes().size(); ++i) {
+        const auto &na = a.nodes()[i], &nb = b.nodes()[i];
+        CHECK(na.bounds.x0 == doctest::Approx(nb.bounds.x0).epsilon(1e-9));
+        CHECK(na.bounds.x1 == doctest::Approx(nb.bounds.x1).epsilon(1e-9));
+        CHECK(na.bounds.y0 == doctest::Approx(nb.bounds.y0).epsilon(1e-9));
+        CHECK(na.bounds.y1 == doctest::Approx(nb.bounds.y1).epsilon(1e-9));
+        if (std::isfinite(na.error))
+            CHECK(na.error == doctest::Approx(nb.error).epsilon(1e-9));
+        else
+            CHECK_FALSE(std::isfinite(nb.error));
+        CHECK(na.complete == nb.complete);
+        CHECK(na.child[0] == nb.child[0]);
+    }
+}
+
+}  // namespace
+
+TEST_CASE("rebuild_cells with one-pixel cells builds the per-pixel tree") {
+    ErrorImage img = random_image(53, 41, 5);
+    const PixelBounds quad{8, 8, 45, 33}, grown{0, 0, 53, 41};
+    RegionTree a(quad, grown, 53.0 * 41), b(quad, grown, 53.0 * 41);
+    RegionTreeParams p;
+    p.target = 0.004;
+    a.rebuild(img, p);
+    b.rebuild_cells(cells_of(img, grown, 1), p);
+    CHECK(a.nodes().size() > 5);
+    check_same_tree(a, b);
+}
+
+TEST_CASE("rebuild_cells equals rebuild on an error image constant inside its 8x8 cells") {
+    // A grown rectangle offset from the origin whose last column and row of cells are cut
+    // (37 = 4 * 8 + 5, 29 = 3 * 8 + 5): the narrow cells map linearly too.
+    const PixelBounds quad{16, 8, 45, 29}, grown{8, 0, 45, 29};
+    for (uint32_t seed : {1u, 2u, 3u}) {
+        ErrorImage fine = random_image(53, 41, seed);
+        ErrorImage blocky = make_image(53, 41, 0.f);
+        for (int y = 0; y < 41; ++y)
+            for (int x = 0; x < 53; ++x) {
+                int bx = grown.x0 + ((x - grown.x0) / 8) * 8, by = grown.y0 + (y / 8) * 8;
+                at(blocky, x, y) = fine.at(std::max(bx, 0), by);
+            }
+        if (seed == 3)  // one cell without estimates: its regions stay open, as per pixel
+            for (int y = 8; y < 16; ++y)
+                for (int x = 24; x < 32; ++x) at(blocky, x, y) = kInfF;
+        RegionTree a(quad, grown, 53.0 * 41), b(quad, grown, 53.0 * 41);
+        RegionTreeParams p;
+        p.target = seed == 1 ? 0.002 : 0.02;
+        p.min_extent = 2;
+        a.rebuild(blocky, p);
+        b.rebuild_cells(cells_of(blocky, grown, 8), p);
+        CAPTURE(seed);
+        // With the unknown cell inside, the root itself has no estimate: one open leaf.
+        if (seed == 3)
+            CHECK(a.nodes().size() == 1);
+        else
+            CHECK(a.nodes().size() > 3);
+        check_same_tree(a, b);
+        check_partition(b);
+        for (int y = quad.y0; y < quad.y1; ++y)
+            for (int x = quad.x0; x < quad.x1; ++x) CHECK(a.pixel_active(x, y) == b.pixel_active(x, y));
+    }
+}
+
+TEST_CASE("rebuild_cells rejects a cell grid that does not cover the grown rectangle") {
+    RegionTree t(PixelBounds{0, 0, 16, 16}, PixelBounds{0, 0, 24, 24}, 1024);
+    CellErrorImage cells;
+    cells.cell = 8;
+    cells.cols = 2;  // needs 3
+    cells.rows = 3;
+    cells.sum.assign(6, 0.0);
+    cells.unknown.assign(6, 0u);
+    CHECK_THROWS_AS(t.rebuild_cells(cells, RegionTreeParams{}), std::invalid_argument);
+    cells.cols = 3;
+    cells.sum.assign(9, 0.0);
+    cells.unknown.assign(9, 0u);
+    CHECK(t.rebuild_cells(cells, RegionTreeParams{}) == 1);
+    CHECK(t.complete());
+}
+
 TEST_CASE("rebuild time of a 960x540 quadrant of a 1920x1080 image") {
     const int w = 1920, h = 1080;
     ErrorImage img = random_image(w, h, 11);
-    const PixelRect quad{0, 0, 960, 540}, grown{0, 0, 968, 548};
+    const PixelBounds quad{0, 0, 960, 540}, grown{0, 0, 968, 548};
     RegionTree t(quad, grown, double(w) * h);
     RegionTreeParams p;
     p.target = 0.002;
@@ -426,6 +529,22 @@ TEST_CASE("rebuild time of a 960x540 quadrant of a 1920x1080 image") {
     MESSAGE("rebuild of a 968x548 grown quadrant: min "
             << ms.front() << " ms, median " << ms[ms.size() / 2] << " ms; " << t.describe());
     CHECK(nodes > 1);
+    // The scheduler's path: one error sum per 8x8 tile.
+    CellErrorImage cells = cells_of(img, grown, 8);
+    RegionTree tc(quad, grown, double(w) * h);
+    tc.rebuild_cells(cells, p);
+    std::vector<double> ms_cells;
+    for (int i = 0; i < 40; ++i) {
+        auto t0 = std::chrono::steady_clock::now();
+        tc.rebuild_cells(cells, p);
+        auto t1 = std::chrono::steady_clock::now();
+        ms_cells.push_back(std::chrono::duration<double, std::milli>(t1 - t0).count());
+    }
+    std::sort(ms_cells.begin(), ms_cells.end());
+    MESSAGE("rebuild_cells of the same quadrant (121x69 tiles): min "
+            << ms_cells.front() << " ms, median " << ms_cells[ms_cells.size() / 2] << " ms; "
+            << tc.describe());
+    CHECK(tc.nodes().size() > 1);
 }
 
 TEST_CASE("extreme sizes and error magnitudes keep valid floating-point splits") {
@@ -433,7 +552,7 @@ TEST_CASE("extreme sizes and error magnitudes keep valid floating-point splits")
     // from one pixel to 65536 x 4: splits must stay finite, inside their parent, strictly
     // between its bounds, and partition it exactly, whatever the scale of the error.
     auto check_valid = [](const RegionTree &t) {
-        const PixelRect g = t.grown();
+        const PixelBounds g = t.grown();
         for (const auto &n : t.nodes()) {
             const FloatRect &b = n.bounds;
             REQUIRE(std::isfinite(b.x0));

@@ -53,7 +53,7 @@ struct SyntheticParams {
     /// Additive noise in [-noise, noise] per channel from a hash of (px, py, index), inside
     /// `noise_rect` (empty: the whole image).
     float noise = 0;
-    sampling::PixelRect noise_rect;
+    sampling::PixelBounds noise_rect;
     /// A sample is a firefly (radiance firefly_value) with this probability.
     float firefly_probability = 0;
     float firefly_value = 1e4f;
@@ -155,7 +155,7 @@ class SyntheticSource final : public SampleSource {
                 break;
         }
         if (p_.noise > 0) {
-            const sampling::PixelRect &r = p_.noise_rect;
+            const sampling::PixelBounds &r = p_.noise_rect;
             bool inside = r.empty() || (int(cs.px) >= r.x0 && int(cs.px) < r.x1 &&
                                         int(cs.py) >= r.y0 && int(cs.py) < r.y1);
             if (inside) {
@@ -309,7 +309,7 @@ class VisitRecorder {
 /// areas summing to its area, and every probed point (pixel centres, or 4096 hashed points for
 /// large rectangles) inside exactly one leaf (half-open bounds). An unbuilt tree passes.
 inline bool leaves_partition(const sampling::RegionTree &tree) {
-    const sampling::PixelRect &g = tree.grown();
+    const sampling::PixelBounds &g = tree.grown();
     std::vector<sampling::FloatRect> leaves;
     for (const auto &n : tree.nodes())
         if (n.is_leaf())

@@ -121,7 +121,7 @@ TEST_CASE("striped locks: 8-neighbours never share a stripe; a sweep waits for r
 
 TEST_CASE("quadrants split at tile boundaries; every tile in exactly one quadrant") {
     for (auto wh : {std::pair{1u, 1u}, {17u, 9u}, {24u, 40u}, {1u, 100u}, {100u, 3u}}) {
-        // Plain variables, not a structured binding: clang 14 cannot capture those (CAPTURE).
+        // Plain variables: clang 14 cannot capture structured bindings in CAPTURE's lambda.
         const uint32_t w = wh.first, h = wh.second;
         SyntheticSource src(w, h);
         sampling::Film film(w, h);
@@ -131,7 +131,7 @@ TEST_CASE("quadrants split at tile boundaries; every tile in exactly one quadran
         // Quadrant rectangles partition the image.
         long long area = 0;
         for (int q = 0; q < 4; ++q) {
-            sampling::PixelRect r = sched.quadrant_rect(q);
+            sampling::PixelBounds r = sched.quadrant_rect(q);
             area += r.empty() ? 0 : r.area();
             if (!r.empty())
                 CHECK(r.x0 % 8 == 0);
@@ -141,7 +141,7 @@ TEST_CASE("quadrants split at tile boundaries; every tile in exactly one quadran
         CHECK(area == (long long)w * h);
         for (size_t t = 0; t < sched.tiles().size(); ++t) {
             const Tile &tile = sched.tiles()[t];
-            sampling::PixelRect r = sched.quadrant_rect(int(sched.tile_quadrant(t)));
+            sampling::PixelBounds r = sched.quadrant_rect(int(sched.tile_quadrant(t)));
             CHECK(int(tile.x0) >= r.x0);
             CHECK(int(tile.x1) <= r.x1);
             CHECK(int(tile.y0) >= r.y0);

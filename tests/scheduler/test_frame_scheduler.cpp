@@ -7,6 +7,7 @@
 
 #include "sampling/pixel_sampler.h"
 #include "scheduler/frame_scheduler.h"
+#include "plugin_test_util.h"
 #include "synthetic_attribute_source.h"
 
 using namespace tessera;
@@ -53,8 +54,7 @@ class RecordingSampler final : public PixelSampler {
 TEST_CASE("frame scheduler: every pixel once per stage, stages separated by barriers") {
     for (uint32_t threads : {1u, 3u, 8u}) {
         for (auto wh : {std::pair{1u, 1u}, {7u, 9u}, {8u, 8u}, {37u, 21u}}) {
-            // Plain variables, not a structured binding: clang 14 cannot capture those.
-            const uint32_t w = wh.first, h = wh.second;
+            const uint32_t w = wh.first, h = wh.second;  // CAPTURE needs plain variables
             test::SyntheticAttributeSource src(w, h);
             RecordingSampler rec;
             sched::FrameScheduler fs(sched::FrameOptions{threads});
@@ -95,14 +95,7 @@ TEST_CASE("plugin registry: names, kinds, parameter parsing and errors") {
     CHECK(a.params.get("error") == doctest::Approx(0.002));
     CHECK(a.params.get("split-factor") == 256);  // default filled in
 
-    auto msg = [](const char *text) {
-        try {
-            parse_plugin_spec(text);
-        } catch (const std::invalid_argument &e) {
-            return std::string(e.what());
-        }
-        return std::string("no error");
-    };
+    auto msg = [](const char *text) { return test::spec_error(text); };
     CHECK(msg("bogus").find("unknown sampler \"bogus\"") != std::string::npos);
     CHECK(msg("fixed:tau=1").find("sampler fixed: unknown key \"tau\"") != std::string::npos);
     CHECK(msg("fixed:spp=0").find("outside [1, 256]") != std::string::npos);

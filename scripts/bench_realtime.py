@@ -1,0 +1,135 @@
+#!/usr/bin/env python3
+"""Benchmark of the real-time sampler plugins against fixed supersampling (issue 4).
+
+For each scene: a ground truth of 256 stratified samples per pixel (`fixed:spp=256`, cached),
+then every plugin and fixed 1, 4, 8, 9, 16, each rendered for --frames frames with the Whitted
+integrator at the same resolution, side by side in one run. Reports PSNR against the ground
+truth (on the display-referred 8-bit PNGs, as the papers measure it; peak 1), rays per pixel,
+median time per frame, and the papers' targets as ratios:
+
+  jin      >= 2x faster than fixed 9 at a PSNR no lower
+  kim      >= 1.5x faster than fixed 1, PSNR >= 40 dB against fixed 1, <= 35 % of pixels traced
+  fliptri  PSNR of fixed 8 or better at <= 2x the time of fixed 1
+  suffern  PSNR no lower than fixed 4 with <= 35 % of its rays
+
+Usage: scripts/bench_realtime.py [--tessera build/tessera] [--resolution 1024] [--frames 5]
+       [--out bench-realtime] [--threads N] [--quick]
+--quick renders at 256x256 with 2 frames and a 64-spp ground truth (a smoke run).
+The third scene (../shared/scenes/bitterli-cornell-box) is used when ../shared exists.
+"""
+import argparse
+import csv
+import json
+import os
+import re
+import subprocess
+import sys
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+PLUGINS = ["jin", "kim", "fliptri", "flipquad", "suffern"]
+FIXED = [1, 4, 8, 9, 16]
+
+
+def scenes():
+    out = [("cornell-mirror", os.path.join(ROOT, "examples/realtime/cornell-mirror.pbrt")),
+           ("thin-shadows", os.path.join(ROOT, "examples/realtime/thin-shadows.pbrt"))]
+    shared = os.path.join(ROOT, "..", "shared", "scenes", "bitterli-cornell-box", "pbrt-v4",
+                          "scene-v4.pbrt")
+    if not os.path.exists(shared):
+        cand = os.path.join(ROOT, "..", "shared", "scenes", "bitterli-cornell-box", "pbrt-v4")
+        if os.path.isdir(cand):
+            pbrts = [f for f in sorted(os.listdir(cand)) if f.endswith(".pbrt")]
+            shared = os.path.join(cand, pbrts[0]) if pbrts else ""
+    if shared and os.path.exists(shared):
+        out.append(("bitterli-cornell", shared))
+    else:
+        print("note: ../shared/scenes not found; benchmarking the example scenes only")
+    return out
+
+
+def render(tessera, scene, sampler, res, frames, out_exr, threads, stats):
+    cmd = [tessera, "render", scene, "--sampler", sampler, "--frames", str(frames),
+           "--resolution", f"{res}x{res}", "-o", out_exr, "--stats", stats, "-q"]
+    if threads:
+        cmd += ["--threads", str(threads)]
+    subprocess.run(cmd, check=True)
+    with open(stats) as f:
+        return json.load(f)
+
+
+def psnr(tessera, a, b):
+    out = subprocess.run([tessera, "diff", a, b], check=True, capture_output=True,
+                         text=True).stdout
+    m = re.search(r"^PSNR\s+\S+\s+\S+\s+\S+\s+(\S+)", out, re.M)
+    return float(m.group(1))
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--tessera", default=os.path.join(ROOT, "build", "tessera"))
+    ap.add_argument("--resolution", type=int, default=1024)
+    ap.add_argument("--frames", type=int, default=5)
+    ap.add_argument("--gt-spp", type=int, default=256)
+    ap.add_argument("--threads", type=int, default=0)
+    ap.add_argument("--out", default="bench-realtime")
+    ap.add_argument("--quick", action="store_true")
+    args = ap.parse_args()
+    if args.quick:
+        args.resolution, args.frames, args.gt_spp = 256, 2, 64
+    os.makedirs(args.out, exist_ok=True)
+    rows = []
+    for name, scene in scenes():
+        sdir = os.path.join(args.out, name)
+        os.makedirs(sdir, exist_ok=True)
+        gt = os.path.join(sdir, f"gt-{args.resolution}-{args.gt_spp}.exr")
+        gt_png = gt[:-4] + ".png"
+        if not os.path.exists(gt_png) or os.path.getmtime(gt_png) < os.path.getmtime(scene):
+            print(f"{name}: ground truth fixed:spp={args.gt_spp} ...", flush=True)
+            render(args.tessera, scene, f"fixed:spp={args.gt_spp}", args.resolution, 1, gt,
+                   args.threads, gt[:-4] + ".json")
+        specs = [f"fixed:spp={k}" for k in FIXED] + PLUGINS
+        res = {}
+        for spec in specs:
+            tag = spec.replace(":", "-").replace("=", "")
+            exr = os.path.join(sdir, tag + ".exr")
+            st = render(args.tessera, scene, spec, args.resolution, args.frames, exr,
+                        args.threads, os.path.join(sdir, tag + ".json"))
+            png = exr[:-4] + ".png"
+            r = {"scene": name, "sampler": spec, "psnr": psnr(args.tessera, png, gt_png),
+                 "rays_per_pixel": st["rays_per_pixel"],
+                 "samples_per_pixel": st["samples_per_pixel"],
+                 "frame_ms_median": st["frame_ms_median"], "frame_ms_p95": st["frame_ms_p95"],
+                 "active_fraction": st["active_fraction"], "active_unit": st["active_unit"],
+                 "png": png}
+            res[spec] = r
+            rows.append(r)
+            print(f"{name:18s} {spec:14s} PSNR {r['psnr']:7.2f} dB  rays/px {r['rays_per_pixel']:7.2f}"
+                  f"  spp {r['samples_per_pixel']:6.2f}  {r['frame_ms_median']:9.1f} ms/frame"
+                  f"  active {100 * r['active_fraction']:5.1f}% {r['active_unit']}", flush=True)
+        f1, f4, f8, f9 = (res[f"fixed:spp={k}"] for k in (1, 4, 8, 9))
+        kim_vs_f1 = psnr(args.tessera, res["kim"]["png"], f1["png"])
+        t = lambda s: res[s]["frame_ms_median"]
+        print(f"\n{name}: targets (ratios side by side from this run)")
+        print(f"  jin     speed-up vs fixed 9   {t('fixed:spp=9') / t('jin'):5.2f}x (>= 2)   "
+              f"PSNR jin - fixed9 {res['jin']['psnr'] - f9['psnr']:+6.2f} dB (>= 0)")
+        print(f"  kim     speed-up vs fixed 1   {t('fixed:spp=1') / t('kim'):5.2f}x (>= 1.5) "
+              f"PSNR vs fixed 1 {kim_vs_f1:6.2f} dB (>= 40)  traced "
+              f"{100 * res['kim']['active_fraction']:.1f}% (<= 35)")
+        print(f"  fliptri time / fixed 1        {t('fliptri') / t('fixed:spp=1'):5.2f}x (<= 2)   "
+              f"PSNR fliptri - fixed8 {res['fliptri']['psnr'] - f8['psnr']:+6.2f} dB (>= 0)")
+        print(f"  suffern rays / fixed 4 rays   "
+              f"{res['suffern']['rays_per_pixel'] / f4['rays_per_pixel']:5.2f} (<= 0.35) "
+              f"PSNR suffern - fixed4 {res['suffern']['psnr'] - f4['psnr']:+6.2f} dB (>= 0)\n")
+        res["kim"]["psnr_vs_fixed1"] = kim_vs_f1
+    with open(os.path.join(args.out, "realtime.csv"), "w", newline="") as f:
+        keys = ["scene", "sampler", "psnr", "rays_per_pixel", "samples_per_pixel",
+                "frame_ms_median", "frame_ms_p95", "active_fraction", "active_unit"]
+        w = csv.DictWriter(f, fieldnames=keys, extrasaction="ignore")
+        w.writeheader()
+        w.writerows(rows)
+    print(f"wrote {os.path.join(args.out, 'realtime.csv')}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
