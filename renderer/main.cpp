@@ -106,6 +106,12 @@ int main(int argc, char **argv) {
     render->add_option("--seed", seed, "Sequence seed")->check(CLI::NonNegativeNumber);
     render->add_option("--max-depth", max_depth, "Maximum path depth (overrides the scene)")
         ->check(CLI::NonNegativeNumber);
+    float clamp = 0;
+    render->add_option("--clamp", clamp,
+                       "Firefly clamp: scale each sample down so that its largest RGB component "
+                       "is at most VALUE (biased; default off, or the scene's Film "
+                       "\"maxcomponentvalue\")")
+        ->check(CLI::PositiveNumber);
     render->add_option("--time", ro.time_s, "Wall-clock budget in seconds (0: none)")
         ->check(CLI::NonNegativeNumber);
     std::string sampler_spec = "adaptive";
@@ -206,6 +212,7 @@ int main(int argc, char **argv) {
             if (error_target >= 0) ro.error = error_target;
             if (max_depth >= 0) ro.overrides.max_depth = max_depth;
             if (seed >= 0) ro.overrides.seed = uint32_t(seed);
+            if (clamp > 0) ro.overrides.max_component = clamp;
             tessera::run_render(ro);
             return 0;
         }

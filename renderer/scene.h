@@ -52,6 +52,9 @@ struct RenderSettings {
 struct SceneOverrides {
     std::optional<int> width, height, spp, max_depth;
     std::optional<uint32_t> seed;
+    /// --clamp: the firefly clamp, RenderSettings::max_component (Film "maxcomponentvalue").
+    /// Default-initialised so that positional SceneOverrides{...} lists need not name it.
+    std::optional<float> max_component = std::nullopt;
 };
 
 class Scene {

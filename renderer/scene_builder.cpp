@@ -131,6 +131,10 @@ void apply_settings(const SceneDesc &d, const SceneOverrides &ov, Scene &sc) {
     if (ov.spp) s.spp = *ov.spp;
     if (ov.max_depth) s.max_depth = *ov.max_depth;
     if (ov.seed) s.seed = *ov.seed;
+    if (ov.max_component) s.max_component = *ov.max_component;
+    if (!(s.max_component > 0))
+        throw SceneError(ov.max_component ? FileLoc{"--clamp", 0} : d.film.loc,
+                         "the firefly clamp (maxcomponentvalue) must be positive");
     // Resolution, spp and the film's memory, before any geometry is loaded.
     check_film(s.width, s.height, s.spp,
                ov.width || ov.height ? FileLoc{"--resolution", 0} : d.film.loc,

@@ -29,9 +29,13 @@ targets=(${FUZZ_TARGETS:-fuzz_pbrt fuzz_ply fuzz_obj})
 command -v "$cxx" >/dev/null || { echo "run_fuzz: $cxx not found (apt-get install clang)" >&2; exit 2; }
 
 echo "== fuzz: configure and build $build"
-cmake -S "$root" -B "$build" -DCMAKE_CXX_COMPILER="$cxx" -DCMAKE_BUILD_TYPE=Debug \
-    -DCMAKE_CXX_FLAGS_DEBUG="-g -O1" -DTESSERA_SANITIZE=ON -DTESSERA_FUZZ=ON \
-    -DTESSERA_BUILD_TESTS=OFF -DTESSERA_BUILD_BENCHMARKS=OFF >/dev/null || exit 1
+# A build folder already configured for fuzzing (scripts/run_sanitizers.sh asan with clang) is
+# used as it is: only the fuzz targets are left to link.
+if ! grep -qs '^TESSERA_FUZZ:BOOL=ON' "$build/CMakeCache.txt"; then
+    cmake -S "$root" -B "$build" -DCMAKE_CXX_COMPILER="$cxx" -DCMAKE_BUILD_TYPE=Debug \
+        -DCMAKE_CXX_FLAGS_DEBUG="-g -O1" -DTESSERA_SANITIZE=ON -DTESSERA_FUZZ=ON \
+        -DTESSERA_BUILD_TESTS=OFF -DTESSERA_BUILD_BENCHMARKS=OFF >/dev/null || exit 1
+fi
 cmake --build "$build" -j "$jobs" --target "${targets[@]}" || exit 1
 
 # The seeds of a target, copied into one folder of the build tree: libFuzzer is given only
@@ -57,7 +61,7 @@ seeds_for() {
 # tests/CMakeLists.txt (OpenImageIO's TextureSystem::destroy).
 export ASAN_OPTIONS="${ASAN_OPTIONS:-detect_leaks=1:new_delete_type_mismatch=0}"
 export UBSAN_OPTIONS="${UBSAN_OPTIONS:-halt_on_error=1:print_stacktrace=1}"
-export LSAN_OPTIONS="${LSAN_OPTIONS:-suppressions=$root/tests/fuzz/lsan.supp:print_suppressions=0}"
+export LSAN_OPTIONS="${LSAN_OPTIONS:-suppressions=$root/tests/lsan.supp:print_suppressions=0}"
 
 status=0
 summary=()

@@ -4,8 +4,15 @@
 #   scripts/run_sanitizers.sh [asan|tsan|all]     (default: all)
 #
 #   asan: configure build-asan with -DTESSERA_SANITIZE=ON (AddressSanitizer + UBSan, Debug with
-#         -O1), build, run `ctest -LE slow` there. UBSan findings fail the test that hits them
-#         (UBSAN_OPTIONS=halt_on_error=1, set by tests/CMakeLists.txt).
+#         -O1), build, run the unit and command-line tests there (`ctest -L 'unit|cli'`: the
+#         whole unit suite, the broken-scene corpus and the losing-nothing cases; the stat,
+#         render and stress tests run in the Release build only, for time). UBSan findings fail
+#         the test that hits them (UBSAN_OPTIONS=halt_on_error=1, set by tests/CMakeLists.txt).
+#         With clang (the default when clang++ is installed; CXX_ASAN picks another compiler)
+#         the build also gets -DTESSERA_FUZZ=ON, so that scripts/run_fuzz.sh can build its
+#         libFuzzer targets from the same objects (FUZZ_BUILD_DIR=build-asan) instead of
+#         compiling everything a third time; clang's -fsanitize=undefined also checks
+#         float-to-int conversions, which gcc's does not.
 #   tsan: configure build-tsan with -DTESSERA_TSAN=ON, build the scheduler tests
 #         (tests/scheduler/test_*.cpp), run `ctest -L tsan` (the
 #         scheduler owns all threads). Debian's libtbb is not
@@ -14,7 +21,9 @@
 #         own code are still reported and fail the test.
 #
 # Environment: JOBS (default 2), ASAN_BUILD_DIR / TSAN_BUILD_DIR (default build-asan,
-# build-tsan), CTEST_ARGS (extra ctest arguments). Exits non-zero when a job fails.
+# build-tsan), CXX_ASAN (default clang++ if installed, else the default compiler),
+# ASAN_LABELS (default 'unit|cli'), CTEST_ARGS (extra ctest arguments). Exits non-zero when a
+# job fails.
 set -uo pipefail
 
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
@@ -26,14 +35,20 @@ status=0
 
 run_asan() {
     echo "== ASan+UBSan: $asan_dir"
+    local cxx="${CXX_ASAN:-}" extra=()
+    if [[ -z "$cxx" ]] && command -v clang++ >/dev/null; then cxx=clang++; fi
+    if [[ -n "$cxx" ]]; then
+        extra+=(-DCMAKE_CXX_COMPILER="$cxx")
+        [[ "$("$cxx" --version 2>/dev/null)" == *clang* ]] && extra+=(-DTESSERA_FUZZ=ON)
+    fi
     cmake -S "$root" -B "$asan_dir" -DCMAKE_BUILD_TYPE=Debug -DCMAKE_CXX_FLAGS_DEBUG="-g -O1" \
-        -DTESSERA_SANITIZE=ON -DTESSERA_BUILD_BENCHMARKS=OFF || return 1
+        -DTESSERA_SANITIZE=ON -DTESSERA_BUILD_BENCHMARKS=OFF "${extra[@]}" || return 1
     cmake --build "$asan_dir" -j "$jobs" || return 1
     # The sanitizer environment is set per test by tests/CMakeLists.txt; these are defaults for
     # anything run by hand from this shell.
     export ASAN_OPTIONS="${ASAN_OPTIONS:-detect_leaks=1:new_delete_type_mismatch=0}"
     export UBSAN_OPTIONS="${UBSAN_OPTIONS:-halt_on_error=1:print_stacktrace=1}"
-    (cd "$asan_dir" && ctest --output-on-failure -j "$jobs" -LE slow ${CTEST_ARGS:-})
+    (cd "$asan_dir" && ctest --output-on-failure -j "$jobs" -L "${ASAN_LABELS:-unit|cli}" ${CTEST_ARGS:-})
 }
 
 run_tsan() {

@@ -8,7 +8,9 @@
 #
 # Environment: BUILD_DIR (default build), JOBS (default: number of cores), CTEST_ARGS (extra
 # arguments for ctest, e.g. "-L unit"), SKIP_APT=1 to skip the package step, TSAN=0 to skip the
-# ThreadSanitizer run of the scheduler tests that `test` does after the Release suite.
+# ThreadSanitizer run of the scheduler tests that `test` does after the Release suite, ASAN=0
+# to skip its ASan+UBSan run of the unit and command-line tests, FUZZ=0 to skip its bounded
+# fuzz run (FUZZ_SECONDS per target, default 20; scripts/run_fuzz.sh).
 set -euo pipefail
 
 mode="${1:-render}"
@@ -24,6 +26,7 @@ packages=(
   doctest-dev libbenchmark-dev
   # scripts/convergence_report.py (tessera converge's report.html, the benchmark suite)
   python3 python3-numpy python3-matplotlib
+  clang libclang-rt-dev
 )
 
 install_packages() {
@@ -67,6 +70,15 @@ case "$mode" in
     if [[ "${TSAN:-1}" == "1" ]]; then
       JOBS="$jobs" TSAN_BUILD_DIR="${TSAN_BUILD_DIR:-$root/build-tsan}" \
         "$root/scripts/run_sanitizers.sh" tsan
+    fi
+    # The unit and command-line tests (the broken-scene corpus among them) under ASan+UBSan,
+    # built with clang; then each fuzz target for FUZZ_SECONDS from the same build.
+    asan_dir="${ASAN_BUILD_DIR:-$root/build-asan}"
+    if [[ "${ASAN:-1}" == "1" ]]; then
+      JOBS="$jobs" ASAN_BUILD_DIR="$asan_dir" "$root/scripts/run_sanitizers.sh" asan
+    fi
+    if [[ "${FUZZ:-1}" == "1" ]]; then
+      JOBS="$jobs" FUZZ_BUILD_DIR="$asan_dir" "$root/scripts/run_fuzz.sh" "${FUZZ_SECONDS:-20}"
     fi
     ;;
   build) ;;

@@ -1,6 +1,7 @@
 // pbrt-v4's sensor exposure (ISO x shutter time / 100) and maxcomponentvalue clamping.
 #include <doctest/doctest.h>
 
+#include <cmath>
 #include <sstream>
 
 #include "render_test_util.h"
@@ -47,4 +48,18 @@ TEST_CASE("Film maxcomponentvalue scales a sample so that its largest component 
     CHECK(img.at(1, 1, 0) == doctest::Approx(1.0));
     CHECK(img.at(1, 1, 1) == doctest::Approx(1.5));
     CHECK(img.at(1, 1, 2) == doctest::Approx(2.0));
+}
+
+TEST_CASE("--clamp (SceneOverrides::max_component) is the same clamp and wins over the file") {
+    SceneOverrides ov;
+    ov.max_component = 2.f;
+    auto sc = scene_from_string(emitter_scene("\"float maxcomponentvalue\" [ 100 ]", ""), ov);
+    CHECK(sc->settings.max_component == 2.f);
+    sampling::RgbImage img = render_image(*sc);
+    CHECK(img.at(1, 1, 0) == doctest::Approx(1.0));
+    CHECK(img.at(1, 1, 2) == doctest::Approx(2.0));
+    // Off by default; a clamp of 0 or below is rejected with its origin.
+    CHECK(std::isinf(scene_from_string(emitter_scene("", ""))->settings.max_component));
+    CHECK_THROWS_WITH_AS(scene_from_string(emitter_scene("\"float maxcomponentvalue\" [ 0 ]", "")),
+                         doctest::Contains("must be positive"), SceneError);
 }
