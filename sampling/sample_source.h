@@ -64,6 +64,9 @@ struct Sample {
     Vec3f normal;      ///< first-hit shading normal, world space (AOV); zero when escaped
     float depth = 0;   ///< distance along the primary ray (AOV); +inf when escaped
     uint32_t rays = 0; ///< rays traced for this sample (statistics)
+    /// Shadow rays not traced because the light could not contribute (behind the surface or
+    /// the light's emitting side, outside a spot cone, zero radiance or zero BSDF value).
+    uint32_t shadow_rays_avoided = 0;
     std::optional<HitAttributes> first_hit;
 };
 
