@@ -189,6 +189,58 @@ struct CoatedDiffuseBxdf {
 /// outside, Fdr_ext(eta) = 2 int_0^1 F(mu, eta) mu dmu, for eta >= 1 (tabulated once; thread-safe).
 float fresnel_diffuse_reflectance(float eta);
 
+/// A Lambertian BSDF with its shading frame, in world space: what Bsdf does for a DiffuseBxdf,
+/// without the variant. Equal to the generic DiffuseBxdf code (which normalises the local
+/// directions) up to rounding: only the sign of cos theta matters for f and for wo. A black
+/// reflectance scatters nothing (DiffuseBxdf::flags() is then kBxdfUnset). Plain value.
+struct LambertianBsdf {
+    Frame shading;  ///< z: the shading normal
+    Rgb reflectance;
+
+    const Frame &frame() const { return shading; }
+    bool has_non_specular() const { return !reflectance.is_black(); }
+    Rgb albedo_hint() const { return reflectance; }
+    Rgb f_pdf(Vec3f wo_world, Vec3f wi_world, float *pdf_out) const {
+        *pdf_out = pdf(wo_world, wi_world);
+        return f(wo_world, wi_world);
+    }
+    /// `uc` is unused (one lobe); the signature matches Bsdf::sample_f.
+    std::optional<BsdfSample> sample_f(Vec3f wo_world, float /*uc*/, Vec2f u) const {
+        return sample_f(wo_world, u);
+    }
+
+    Rgb f(Vec3f wo_world, Vec3f wi_world) const {
+        float co = dot(wo_world, shading.z), ci = dot(wi_world, shading.z);
+        if (!(co * ci > 0.f)) return {};
+        Rgb r = reflectance * kInvPi;
+        return r.is_finite() ? r : Rgb();
+    }
+    float pdf(Vec3f wo_world, Vec3f wi_world) const {
+        float co = dot(wo_world, shading.z), ci = dot(wi_world, shading.z);
+        if (!(co * ci > 0.f)) return 0.f;
+        float l2 = length_squared(wi_world);
+        if (!(std::abs(l2 - 1.f) < 1e-6f)) ci /= std::sqrt(l2);
+        float p = sampling::cosine_hemisphere_pdf(std::abs(ci));
+        return std::isfinite(p) ? p : 0.f;
+    }
+    std::optional<BsdfSample> sample_f(Vec3f wo_world, Vec2f u) const {
+        float co = dot(wo_world, shading.z);
+        if (co == 0.f || std::isnan(co) || reflectance.is_black()) return std::nullopt;
+        Vec3f wi = sampling::square_to_cosine_hemisphere(u);
+        if (co < 0.f) wi.z = -wi.z;
+        float pdf = sampling::cosine_hemisphere_pdf(std::abs(wi.z));
+        Rgb f = reflectance * kInvPi;
+        if (!(pdf > 0.f) || f.is_black() || !f.is_finite() || !std::isfinite(pdf))
+            return std::nullopt;
+        BsdfSample s;
+        s.f = f;
+        s.wi = shading.to_world(wi);
+        s.pdf = pdf;
+        s.flags = kBxdfReflection | kBxdfDiffuse;
+        return s;
+    }
+};
+
 using Bxdf = std::variant<DiffuseBxdf, ConductorBxdf, DielectricBxdf, ThinDielectricBxdf,
                           CoatedDiffuseBxdf>;
 
@@ -252,38 +304,17 @@ class Bsdf {
                                                TransportMode mode) const;
     float pdf_general(Vec3f wo_world, Vec3f wi_world, TransportMode mode) const;
 
-    // Lambertian fast paths: equal to the generic code (which normalises the local directions)
-    // up to rounding; only the sign of cos theta matters for f and for wo.
+    // Lambertian fast paths (LambertianBsdf, shared with the path tracer's Lambertian-only
+    // specialisation so that both give bit-identical images).
     Rgb diffuse_f(const DiffuseBxdf &d, Vec3f wo_world, Vec3f wi_world) const {
-        float co = dot(wo_world, frame_.z), ci = dot(wi_world, frame_.z);
-        if (!(co * ci > 0.f)) return {};
-        Rgb r = d.reflectance * kInvPi;
-        return r.is_finite() ? r : Rgb();
+        return LambertianBsdf{frame_, d.reflectance}.f(wo_world, wi_world);
     }
     float diffuse_pdf(Vec3f wo_world, Vec3f wi_world) const {
-        float co = dot(wo_world, frame_.z), ci = dot(wi_world, frame_.z);
-        if (!(co * ci > 0.f)) return 0.f;
-        float l2 = length_squared(wi_world);
-        if (!(std::abs(l2 - 1.f) < 1e-6f)) ci /= std::sqrt(l2);
-        float p = sampling::cosine_hemisphere_pdf(std::abs(ci));
-        return std::isfinite(p) ? p : 0.f;
+        return LambertianBsdf{frame_, Rgb()}.pdf(wo_world, wi_world);
     }
     std::optional<BsdfSample> diffuse_sample_f(const DiffuseBxdf &d, Vec3f wo_world,
                                                Vec2f u) const {
-        float co = dot(wo_world, frame_.z);
-        if (co == 0.f || std::isnan(co) || flags_ == kBxdfUnset) return std::nullopt;
-        Vec3f wi = sampling::square_to_cosine_hemisphere(u);
-        if (co < 0.f) wi.z = -wi.z;
-        float pdf = sampling::cosine_hemisphere_pdf(std::abs(wi.z));
-        Rgb f = d.reflectance * kInvPi;
-        if (!(pdf > 0.f) || f.is_black() || !f.is_finite() || !std::isfinite(pdf))
-            return std::nullopt;
-        BsdfSample s;
-        s.f = f;
-        s.wi = frame_.to_world(wi);
-        s.pdf = pdf;
-        s.flags = kBxdfReflection | kBxdfDiffuse;
-        return s;
+        return LambertianBsdf{frame_, d.reflectance}.sample_f(wo_world, u);
     }
 
     Frame frame_;

@@ -11,6 +11,7 @@
 #include "renderer/diff.h"
 #include "renderer/image_io.h"
 #include "renderer/render.h"
+#include "renderer/specialize.h"
 
 namespace {
 
@@ -152,6 +153,10 @@ int main(int argc, char **argv) {
     render->add_option("--view", ro.display.view, "OCIO view (default: the display's)");
     render->add_option("--exposure", ro.display.exposure_stops, "PNG exposure in stops");
     render->add_flag("-q,--quiet", ro.quiet, "No progress bar or summary");
+    std::string no_specialize;
+    render->add_flag("--no-specialize{all}", no_specialize,
+                     "Force the general code paths (benchmarks): all, or --no-specialize=NAME,... "
+                     "of differentials, lambertian, cull (renderer/specialize.h)");
 
     CLI::App *samplers =
         app.add_subcommand("samplers", "List the sampler plugins with their keys and defaults");
@@ -213,6 +218,14 @@ int main(int argc, char **argv) {
             if (max_depth >= 0) ro.overrides.max_depth = max_depth;
             if (seed >= 0) ro.overrides.seed = uint32_t(seed);
             if (clamp > 0) ro.overrides.max_component = clamp;
+            if (!no_specialize.empty()) {
+                try {
+                    ro.no_specialize = tessera::parse_specializations(no_specialize);
+                } catch (const std::invalid_argument &e) {
+                    std::fprintf(stderr, "tessera: --no-specialize: %s\n", e.what());
+                    return 2;
+                }
+            }
             tessera::run_render(ro);
             return 0;
         }

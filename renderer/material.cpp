@@ -62,6 +62,10 @@ class DiffuseMaterial final : public Material {
     }
     uint8_t possible_flags() const override { return kBxdfReflection | kBxdfDiffuse; }
     bool reads_texture() const override { return !constant_; }
+    std::optional<Rgb> lambertian_reflectance() const override {
+        if (!constant_) return std::nullopt;
+        return constant_reflectance_;
+    }
     std::string describe() const override { return "diffuse"; }
 
     static Rgb clamp_unit(Rgb c) {

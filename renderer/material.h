@@ -34,6 +34,13 @@ class Material {
     /// True if the material reads a non-constant texture (its parameters, or a bump or normal
     /// map): what the real-time modes' "texture existence" attribute reports.
     bool textured() const { return bumped() || reads_texture(); }
+    /// The reflectance when this material is a Lambertian with a constant reflectance and no
+    /// bump or normal map (get_bsdf then always returns a DiffuseBxdf of it in the frame
+    /// Frame::from_xz(si.dpdu, si.ns)); nullopt otherwise. The path tracer's Lambertian-only
+    /// specialisation reads it.
+    std::optional<Rgb> constant_lambertian() const {
+        return bumped() ? std::nullopt : lambertian_reflectance();
+    }
     virtual std::string describe() const = 0;
 
     /// Sets pbrt's "displacement" texture: bump mapping of the shading normal.
@@ -44,6 +51,8 @@ class Material {
   protected:
     /// True if a parameter of the material is a non-constant texture.
     virtual bool reads_texture() const = 0;
+    /// A constant Lambertian's reflectance (bump mapping aside); nullopt for everything else.
+    virtual std::optional<Rgb> lambertian_reflectance() const { return std::nullopt; }
     bool bumped() const { return displacement_ != nullptr || normal_map_ != nullptr; }
     /// The shading frame at `si`: from the shading normal and dpdu, bump-mapped when the
     /// material has a displacement texture (pbrt-v4 BumpMap: finite differences of the

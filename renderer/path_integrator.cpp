@@ -1,6 +1,7 @@
 #include "renderer/path_integrator.h"
 
 #include <cstdio>
+#include <type_traits>
 
 namespace tessera {
 
@@ -58,15 +59,22 @@ TextureEvalContext texture_context(const SurfaceInteraction &si) {
 }  // namespace
 
 PathIntegrator::PathIntegrator(const Scene &scene, uint32_t seed, int max_depth,
-                               DirectStrategy strategy)
+                               DirectStrategy strategy, uint32_t disabled)
     : scene_(scene), seed_(seed), max_depth_(max_depth), strategy_(strategy),
-      spp_hint_(scene.settings.spp) {}
+      spp_hint_(scene.settings.spp), spec_(applicable_specializations(scene) & ~disabled) {
+    differentials_ = !(spec_ & kSpecDifferentials);
+    cull_ = spec_ & kSpecCull;
+    if (spec_ & kSpecLambertian) {
+        lambertian_.reserve(scene.materials.size());
+        for (const auto &m : scene.materials) lambertian_.push_back(*m->constant_lambertian());
+    }
+}
 
 std::string PathIntegrator::describe() const {
     const char *s[] = {"MIS", "light sampling only", "BSDF sampling only"};
-    char buf[160];
-    std::snprintf(buf, sizeof(buf), "path tracer, max depth %d, %s, seed %u", max_depth_,
-                  s[int(strategy_)], seed_);
+    char buf[256];
+    std::snprintf(buf, sizeof(buf), "path tracer, max depth %d, %s, seed %u, specialised: %s",
+                  max_depth_, s[int(strategy_)], seed_, specialization_names(spec_).c_str());
     return buf;
 }
 
@@ -84,7 +92,7 @@ Sample PathIntegrator::evaluate(const CameraSample &cs) const {
     else
         sampler.skip(2);
     // Only texture filtering reads the ray differentials.
-    CameraRay cray = scene_.camera->generate_ray(p_raster, u_lens, scene_.features.textures);
+    CameraRay cray = scene_.camera->generate_ray(p_raster, u_lens, differentials_);
     PathResult r = trace(cray, sampler);
     Sample s;
     s.radiance = r.L * scene_.settings.image_scale;
@@ -94,6 +102,7 @@ Sample PathIntegrator::evaluate(const CameraSample &cs) const {
     s.normal = r.normal;
     s.depth = r.depth;
     s.rays = r.rays;
+    s.shadow_rays_avoided = r.shadow_rays_avoided;
     return s;
 }
 
@@ -109,6 +118,13 @@ Rgb PathIntegrator::radiance(const Ray &ray, uint32_t px, uint32_t py, uint32_t 
 
 PathIntegrator::PathResult PathIntegrator::trace(const CameraRay &cray,
                                                  sampling::SobolSampler &sampler) const {
+    return lambertian_.empty() ? trace_impl<false>(cray, sampler)
+                               : trace_impl<true>(cray, sampler);
+}
+
+template <bool kLambertian>
+PathIntegrator::PathResult PathIntegrator::trace_impl(const CameraRay &cray,
+                                                      sampling::SobolSampler &sampler) const {
     PathResult res;
     const Scene &sc = scene_;
     Ray ray = cray.ray;
@@ -120,7 +136,7 @@ PathIntegrator::PathResult PathIntegrator::trace(const CameraRay &cray,
     int depth = 0, skips = 0;
     const bool use_nee = strategy_ != DirectStrategy::BsdfOnly;
     const bool use_bsdf_emission = strategy_ != DirectStrategy::LightOnly;
-    const bool need_differentials = sc.features.textures;
+    const bool need_differentials = differentials_;
     (void)any_non_specular;
 
     while (true) {
@@ -169,9 +185,18 @@ PathIntegrator::PathResult PathIntegrator::trace(const CameraRay &cray,
         }
         if (need_differentials)
             compute_differentials(si, depth == 0 ? &cray : nullptr, *sc.camera, spp_hint_);
-        TextureEvalContext tc = texture_context(si);
-        std::optional<Bsdf> bsdf;
-        if (si.material >= 0) bsdf = sc.materials[size_t(si.material)]->get_bsdf(si, tc);
+        // The BSDF: in the Lambertian specialisation straight from the material's constant
+        // reflectance, in the frame Material::frame builds without a bump map.
+        using BsdfType = std::conditional_t<kLambertian, LambertianBsdf, Bsdf>;
+        std::optional<BsdfType> bsdf;
+        if constexpr (kLambertian) {
+            if (si.material >= 0)
+                bsdf = LambertianBsdf{Frame::from_xz(si.dpdu, si.ns),
+                                      lambertian_[size_t(si.material)]};
+        } else {
+            TextureEvalContext tc = texture_context(si);
+            if (si.material >= 0) bsdf = sc.materials[size_t(si.material)]->get_bsdf(si, tc);
+        }
         if (!bsdf) {
             // "interface": no surface here; continue the ray without a bounce.
             if (++skips > 256) break;
@@ -182,21 +207,25 @@ PathIntegrator::PathResult PathIntegrator::trace(const CameraRay &cray,
         if (depth++ == max_depth_) break;
 
         // Next-event estimation.
-        uint8_t flags = bsdf->flags();
         if (use_nee && bsdf->has_non_specular() && sc.light_sampler) {
             float u_light = sampler.get_1d();
             Vec2f u2 = sampler.get_2d();
             LightSampleContext ctx{si.p, si.n};
             if (auto sampled = sc.light_sampler->sample(u_light)) {
                 const Light *light = sampled->light;
-                if (auto ls = light->sample_li(ctx, u2); ls && !ls->L.is_black() && ls->pdf > 0) {
+                bool traced = false;
+                // Without culling (the general path) a sample whose radiance or BSDF value is
+                // zero still traces its shadow ray and adds nothing.
+                if (auto ls = light->sample_li(ctx, u2);
+                    ls && (!cull_ || !ls->L.is_black()) && ls->pdf > 0) {
                     LightType lt = light->type();
                     const bool delta = is_delta_light(lt);
                     float p_b = 0.f;
                     Rgb f = (!delta && use_bsdf_emission) ? bsdf->f_pdf(si.wo, ls->wi, &p_b)
                                                           : bsdf->f(si.wo, ls->wi);
                     f *= absdot(ls->wi, bsdf->frame().z);
-                    if (!f.is_black()) {
+                    if (!cull_ || !f.is_black()) {
+                        traced = true;
                         Ray shadow = (lt == LightType::Infinite || lt == LightType::DeltaDirection)
                                          ? si.spawn_ray(ls->wi)
                                          : si.spawn_ray_to(ls->p_light);
@@ -212,6 +241,7 @@ PathIntegrator::PathResult PathIntegrator::trace(const CameraRay &cray,
                         }
                     }
                 }
+                if (!traced) ++res.shadow_rays_avoided;
             }
         } else if (use_nee) {
             // Keep the dimension layout fixed whatever the material.
@@ -230,7 +260,6 @@ PathIntegrator::PathResult PathIntegrator::trace(const CameraRay &cray,
         if (bs->is_transmission()) eta_scale *= sqr(bs->eta);
         prev_ctx = LightSampleContext{si.p, si.n};
         ray = si.spawn_ray(bs->wi);
-        (void)flags;
 
         // Russian roulette (pbrt-v4): on throughput scaled by the squared relative IOR.
         // The roulette dimension is always consumed, but only hashed when it is used.

@@ -9,8 +9,10 @@
 
 #include <atomic>
 #include <string>
+#include <vector>
 
 #include "renderer/scene.h"
+#include "renderer/specialize.h"
 #include "sampling/sample_source.h"
 #include "sampling/sequence.h"
 
@@ -25,14 +27,18 @@ enum class DirectStrategy {
 
 class PathIntegrator final : public SampleSource {
   public:
-    /// `scene` must outlive the integrator. `seed` selects the sample sequence.
+    /// `scene` must outlive the integrator. `seed` selects the sample sequence. The
+    /// specialised code paths (renderer/specialize.h) that apply to the scene are used, except
+    /// those in `disabled` (Specialization bits), which take the general path.
     PathIntegrator(const Scene &scene, uint32_t seed, int max_depth,
-                   DirectStrategy strategy = DirectStrategy::Mis);
+                   DirectStrategy strategy = DirectStrategy::Mis, uint32_t disabled = 0);
     uint32_t width() const override { return uint32_t(scene_.settings.width); }
     uint32_t height() const override { return uint32_t(scene_.settings.height); }
     /// Thread-safe; a pure function of the camera sample and the seed.
     Sample evaluate(const CameraSample &cs) const override;
     std::string describe() const override;
+    /// The Specialization bits in use (applicable to the scene and not disabled).
+    uint32_t specializations() const { return spec_; }
     /// Radiance along an arbitrary ray (tests: furnaces); `sampler_index` picks the sequence.
     Rgb radiance(const Ray &ray, uint32_t px, uint32_t py, uint32_t index) const;
 
@@ -42,14 +48,22 @@ class PathIntegrator final : public SampleSource {
         Vec3f normal;
         float depth = kInfinity;
         uint32_t rays = 0;
+        uint32_t shadow_rays_avoided = 0;
     };
     PathResult trace(const CameraRay &cray, sampling::SobolSampler &sampler) const;
+    /// The path loop; kLambertian: every material is a constant Lambertian (lambertian_).
+    template <bool kLambertian>
+    PathResult trace_impl(const CameraRay &cray, sampling::SobolSampler &sampler) const;
 
     const Scene &scene_;
     uint32_t seed_;
     int max_depth_;
     DirectStrategy strategy_;
     int spp_hint_;
+    uint32_t spec_ = 0;
+    bool differentials_ = true;   ///< ray differentials and texture footprints are computed
+    bool cull_ = false;           ///< no shadow rays toward lights that cannot contribute
+    std::vector<Rgb> lambertian_; ///< per material: its reflectance (lambertian specialisation)
 };
 
 }  // namespace tessera

@@ -14,6 +14,7 @@
 #include "renderer/image_io.h"
 #include "renderer/path_integrator.h"
 #include "renderer/realtime.h"
+#include "renderer/specialize.h"
 #include "renderer/whitted_integrator.h"
 #include "sampling/adaptive_error.h"
 
@@ -55,6 +56,7 @@ double seconds_since(std::chrono::steady_clock::time_point t0) {
 void accumulate(sched::AdaptiveStats &total, const sched::AdaptiveStats &s) {
     total.samples += s.samples;
     total.rays += s.rays;
+    total.shadow_rays_avoided += s.shadow_rays_avoided;
     total.nan_samples += s.nan_samples;
     total.wall_s += s.wall_s;
     total.threads = s.threads;
@@ -161,10 +163,12 @@ sched::AdaptiveStats render_scene(const Scene &scene, sampling::Film &film, uint
     return scheduler.render(cancel);
 }
 
-std::unique_ptr<SampleSource> make_integrator(const Scene &scene, const std::string &name) {
+std::unique_ptr<SampleSource> make_integrator(const Scene &scene, const std::string &name,
+                                              uint32_t no_specialize) {
     if (name == "path")
         return std::make_unique<PathIntegrator>(scene, scene.settings.seed,
-                                                scene.settings.max_depth);
+                                                scene.settings.max_depth, DirectStrategy::Mis,
+                                                no_specialize);
     if (name == "whitted") {
         WhittedOptions wo;
         wo.max_depth = scene.settings.max_depth;
@@ -247,7 +251,8 @@ RenderReport run_render(const RenderOptions &opt) {
     }
 
     std::unique_ptr<SampleSource> integrator =
-        make_integrator(*scene, opt.integrator.empty() ? "path" : opt.integrator);
+        make_integrator(*scene, opt.integrator.empty() ? "path" : opt.integrator,
+                        opt.no_specialize);
     auto t_render = std::chrono::steady_clock::now();
     {
         SignalGuard guard;
@@ -380,6 +385,17 @@ RenderReport run_render(const RenderOptions &opt) {
         j["film_bytes_per_pixel"] = rep.film_bytes_per_pixel;
         j["peak_rss_bytes"] = rep.peak_rss_bytes;
         j["features"] = scene->features.describe();
+        j["shadow_rays_avoided"] = s.shadow_rays_avoided;
+        {
+            // The code paths chosen (renderer/specialize.h).
+            const uint32_t applicable = applicable_specializations(*scene);
+            const auto *path = dynamic_cast<const PathIntegrator *>(integrator.get());
+            j["specializations"] = {
+                {"applicable", specialization_names(applicable)},
+                {"used", path ? specialization_names(path->specializations()) : "none"},
+                {"forced_general", specialization_names(applicable & opt.no_specialize)}};
+            j["code_path"] = integrator->describe();
+        }
         j["version"] = TESSERA_VERSION;
         if (!rep.checkpoint_path.empty()) j["checkpoint"] = rep.checkpoint_path;
         write_atomically(opt.stats_path, [&](const std::string &tmp) {

@@ -73,6 +73,9 @@ struct RenderOptions {
     std::string integrator;
     uint32_t frames = 1;            ///< --frames: frames to render with a frame plugin
     double orbit_deg = 0;           ///< --orbit: camera orbit over all frames, degrees
+    /// --no-specialize[=NAME,...]: Specialization bits (renderer/specialize.h) forced onto the
+    /// general code path (benchmarks of what each specialisation saves).
+    uint32_t no_specialize = 0;
 };
 
 /// What a render produced (for the stats JSON and tests).
@@ -106,7 +109,8 @@ sched::AdaptiveStats render_scene(const Scene &scene, sampling::Film &film, uint
 
 /// The integrator called `name` ("path" or "whitted") for `scene`. Throws SceneError for an
 /// unknown name.
-std::unique_ptr<SampleSource> make_integrator(const Scene &scene, const std::string &name);
+std::unique_ptr<SampleSource> make_integrator(const Scene &scene, const std::string &name,
+                                              uint32_t no_specialize = 0);
 
 /// Runs the whole `tessera render` command. Throws SceneError on bad input (exit code 2) and
 /// std::exception on internal errors (exit code 1).

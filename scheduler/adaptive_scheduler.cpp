@@ -216,6 +216,7 @@ struct AdaptiveScheduler::RenderContext {
 
 struct AdaptiveScheduler::WorkerState {
     uint64_t samples = 0, rays = 0, tiles_rendered = 0, tiles_skipped = 0, pixels_skipped = 0;
+    uint64_t shadow_rays_avoided = 0;
     double reader_wait_s = 0, writer_wait_s = 0, tile_wait_s = 0, render_s = 0, rebuild_s = 0;
     uint64_t coalesced_rebuilds = 0;
     std::vector<sampling::PixelBounds> rects;
@@ -227,6 +228,7 @@ struct AdaptiveScheduler::WorkerState {
         AdaptiveStats &t = ctx.totals;
         t.samples += samples;
         t.rays += rays;
+        t.shadow_rays_avoided += shadow_rays_avoided;
         t.tiles_rendered += tiles_rendered;
         t.tiles_skipped += tiles_skipped;
         t.pixels_skipped += pixels_skipped;
@@ -490,6 +492,16 @@ void AdaptiveScheduler::process_tile(size_t t, uint32_t pass, RenderContext &ctx
         quad.live().active_rects(
             sampling::PixelBounds{int(tile.x0), int(tile.y0), int(tile.x1), int(tile.y1)}, ws.rects);
         quad.locks.unlock_shared(s);
+        if (ws.rects.empty() && !options_.visit_hook) {
+            // The whole tile lies in converged regions: it costs the tree check above and
+            // nothing else (no pixel is read or written).
+            ws.pixels_skipped += n;
+            ++ws.tiles_skipped;
+            ws.render_s += seconds_since(t0);
+            done.store(pass + 1, std::memory_order_release);
+            done.notify_all();
+            return;
+        }
         std::fill_n(ws.active.begin(), n, uint8_t(0));
         for (const sampling::PixelBounds &r : ws.rects) {
             int x0 = std::max(r.x0, int(tile.x0)), x1 = std::min(r.x1, int(tile.x1));
@@ -501,7 +513,7 @@ void AdaptiveScheduler::process_tile(size_t t, uint32_t pass, RenderContext &ctx
     }
 
     bool any_active = false, any_new_error = false;
-    uint64_t samples = 0, rays = 0;
+    uint64_t samples = 0, rays = 0, shadow_avoided = 0;
     for (uint32_t i = 0; i < n; ++i) {
         const uint32_t px = tile.x0 + i % tw, py = tile.y0 + i / tw;
         const uint32_t first = film_.sample_count(px, py);
@@ -517,6 +529,7 @@ void AdaptiveScheduler::process_tile(size_t t, uint32_t pass, RenderContext &ctx
             CameraSample cs = camera_sample(options_.seed, px, py, index);
             Sample s = source_.evaluate(cs);
             rays += s.rays;
+            shadow_avoided += s.shadow_rays_avoided;
             ++samples;
             film_.add_sample(px, py, index, s);
         }
@@ -536,6 +549,7 @@ void AdaptiveScheduler::process_tile(size_t t, uint32_t pass, RenderContext &ctx
         ++ws.tiles_skipped;
     ws.samples += samples;
     ws.rays += rays;
+    ws.shadow_rays_avoided += shadow_avoided;
     ws.render_s += seconds_since(t0);
     if (ctx.progress)
         ctx.progress->add(samples, rays);
@@ -878,6 +892,7 @@ AdaptiveStats AdaptiveScheduler::render(const std::atomic<bool> *cancel) {
     const AdaptiveStats &t = ctx.totals;
     stats.samples = t.samples;
     stats.rays = t.rays;
+    stats.shadow_rays_avoided = t.shadow_rays_avoided;
     stats.tiles_rendered = t.tiles_rendered;
     stats.tiles_skipped = t.tiles_skipped;
     stats.pixels_skipped = t.pixels_skipped;

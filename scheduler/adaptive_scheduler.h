@@ -125,6 +125,7 @@ struct AdaptiveOptions {
 struct AdaptiveStats {
     uint64_t samples = 0;         ///< samples taken in this call (dropped ones included)
     uint64_t rays = 0;            ///< sum of Sample::rays
+    uint64_t shadow_rays_avoided = 0;  ///< sum of Sample::shadow_rays_avoided
     uint64_t nan_samples = 0;     ///< samples the film dropped for non-finite radiance
     double wall_s = 0;            ///< wall time of render(), seconds
     uint32_t passes = 0;          ///< completed passes (the maximum over the quadrants)
@@ -140,7 +141,9 @@ struct AdaptiveStats {
     bool out_of_time = false;     ///< stopped by the time budget
     bool converged = false;       ///< every quadrant's tree complete (error target reached)
     uint64_t tiles_rendered = 0;  ///< tile visits that took samples or had active pixels
-    uint64_t tiles_skipped = 0;   ///< tile visits skipped: the tile lay in completed regions
+    /// Tile visits skipped: the tile lay in completed regions (it cost the region-tree check
+    /// and nothing else).
+    uint64_t tiles_skipped = 0;
     uint64_t pixels_skipped = 0;  ///< pixel visits skipped because their region was complete
     /// Seconds threads waited to acquire the trees' locks, summed over threads:
     /// lock_wait_reader_s + lock_wait_writer_s.
