@@ -57,7 +57,9 @@ std::string specialization_names(uint32_t mask) {
 
 uint32_t applicable_specializations(const Scene &scene) {
     uint32_t mask = 0;
-    bool any_textured = scene.features.textures;
+    // Only materials read textures with footprints (varying parameters, bump and normal
+    // maps); constant textures and alpha tests need no differentials.
+    bool any_textured = false;
     for (const auto &m : scene.materials) any_textured |= m->textured();
     if (!any_textured) mask |= kSpecDifferentials;
     bool lambertian = !scene.materials.empty();

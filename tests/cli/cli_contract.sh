@@ -280,6 +280,34 @@ bad_sampler_key)
     expect_stderr_line 'unknown integrator "nosuch"'
     expect_no_output out
     ;;
+no_specialize)
+    # --no-specialize forces the general code paths: the same image, reported in --stats; a
+    # bad name is an error naming the valid ones, before anything is rendered.
+    write_good_scene scene.pbrt
+    run render scene.pbrt -o spec.exr --stats spec.json --no-png -q
+    expect_rc 0
+    run render scene.pbrt -o gen.exr --stats gen.json --no-png -q --no-specialize
+    expect_rc 0
+    run render scene.pbrt -o one.exr --stats one.json --no-png -q --no-specialize=cull
+    expect_rc 0
+    python3 - spec.json gen.json one.json <<'PY' || fail "specialisation stats check failed"
+import json, sys
+spec, gen, one = (json.load(open(f)) for f in sys.argv[1:])
+assert spec["specializations"]["forced_general"] == "none", spec["specializations"]
+assert gen["specializations"]["used"] == "none", gen["specializations"]
+assert one["specializations"]["forced_general"] == "cull", one["specializations"]
+assert "cull" not in one["specializations"]["used"], one["specializations"]
+assert spec["shadow_rays_avoided"] >= gen["shadow_rays_avoided"], (spec, gen)
+assert "specialised:" in spec["code_path"], spec["code_path"]
+PY
+    run diff gen.exr spec.exr
+    expect_rc 0
+    grep -q '^MSE *0 *0 *0 *0$' stdout.txt || fail "general and specialised images differ"
+    run render scene.pbrt -o out.exr --stats out.json -q --no-specialize=lambertian,bogus
+    expect_rc 2
+    expect_stderr_line 'unknown specialisation "bogus"'
+    expect_no_output out
+    ;;
 realtime_frames)
     # A real-time sampler renders whole frames with the Whitted integrator and reports them.
     write_good_scene scene.pbrt

@@ -1,0 +1,181 @@
+// Specialised code paths (renderer/specialize.h, issue 7): which ones a scene gets, and that
+// each gives exactly the image of the general path while skipping work.
+#include <doctest/doctest.h>
+
+#include <stdexcept>
+
+#include "render_test_util.h"
+#include "renderer/path_integrator.h"
+#include "renderer/specialize.h"
+#include "scheduler/adaptive_scheduler.h"
+
+using namespace tessera;
+using namespace tessera::test;
+
+namespace {
+
+struct Rendered {
+    std::vector<float> rgb;
+    sched::AdaptiveStats stats;
+};
+
+/// Uniform render of `scene` with the path tracer, the specialisations in `disabled` forced
+/// onto the general path.
+Rendered render_with(const Scene &scene, uint32_t disabled) {
+    PathIntegrator integrator(scene, scene.settings.seed, scene.settings.max_depth,
+                              DirectStrategy::Mis, disabled);
+    CHECK((integrator.specializations() & disabled) == 0);
+    sampling::Film film(uint32_t(scene.settings.width), uint32_t(scene.settings.height));
+    SamplerSpec uniform;
+    uniform.name = "uniform";
+    sched::AdaptiveOptions o = scheduler_options(scene, uniform, 2, true);
+    sched::AdaptiveScheduler scheduler(integrator, film, o);
+    Rendered r;
+    r.stats = scheduler.render();
+    r.rgb = film.beauty_rgb();
+    return r;
+}
+
+std::unique_ptr<Scene> example(const std::string &rel, int size = 24, int spp = 4) {
+    SceneOverrides ov;
+    ov.width = size;
+    ov.height = size;
+    ov.spp = spp;
+    return load_scene(std::string(TESSERA_SOURCE_DIR) + "/examples/" + rel, ov);
+}
+
+/// Bit-identical float images (NaN never expected).
+bool identical(const std::vector<float> &a, const std::vector<float> &b) {
+    if (a.size() != b.size()) return false;
+    for (size_t i = 0; i < a.size(); ++i)
+        if (a[i] != b[i]) return false;
+    return true;
+}
+
+}  // namespace
+
+TEST_CASE("--no-specialize names parse, and bad ones are errors naming the valid ones") {
+    CHECK(parse_specializations("all") == kSpecAll);
+    CHECK(parse_specializations("lambertian") == kSpecLambertian);
+    CHECK(parse_specializations("cull,differentials") == (kSpecCull | kSpecDifferentials));
+    CHECK(specialization_names(kSpecLambertian | kSpecCull) == "lambertian,cull");
+    CHECK(specialization_names(0) == "none");
+    try {
+        parse_specializations("lambertian,bogus");
+        FAIL("no exception");
+    } catch (const std::invalid_argument &e) {
+        std::string m = e.what();
+        CHECK(m.find("\"bogus\"") != std::string::npos);
+        CHECK(m.find("differentials") != std::string::npos);
+    }
+    CHECK_THROWS_AS(parse_specializations(""), std::invalid_argument);
+}
+
+TEST_CASE("a scene gets exactly the specialisations whose property it has") {
+    // Diffuse-only, untextured, one area light: all three.
+    CHECK(applicable_specializations(*example("specialize/diffuse-box.pbrt")) == kSpecAll);
+    // A checkerboard floor, glass and copper: only culling.
+    CHECK(applicable_specializations(*example("cornell-box/scene.pbrt")) == kSpecCull);
+    const std::string head = tiny_lit_scene_header(4, 4);
+    const std::string quad = "Shape \"trianglemesh\" \"point3 P\" [ -1 -1 0  1 -1 0  1 1 0  -1 1 0 ]"
+                             " \"integer indices\" [ 0 1 2  0 2 3 ]\n";
+    // A textured diffuse material: neither differentials nor lambertian.
+    auto textured = scene_from_string(
+        head + "Texture \"c\" \"spectrum\" \"checkerboard\"\nMaterial \"diffuse\" \"texture "
+               "reflectance\" \"c\"\n" + quad);
+    CHECK(applicable_specializations(*textured) == kSpecCull);
+    // A constant diffuse with a bump map: textured (no differentials skipping), not lambertian.
+    auto bumped = scene_from_string(
+        head + "Texture \"b\" \"float\" \"checkerboard\"\nMaterial \"diffuse\" \"texture "
+               "displacement\" \"b\"\n" + quad);
+    CHECK(applicable_specializations(*bumped) == kSpecCull);
+    // A smooth conductor: untextured, not lambertian.
+    auto metal = scene_from_string(head + "Material \"conductor\"\n" + quad);
+    CHECK(applicable_specializations(*metal) == (kSpecCull | kSpecDifferentials));
+    // No light: nothing to cull.
+    auto dark = scene_from_string(
+        "LookAt 0 0 -3  0 0 0  0 1 0\nCamera \"perspective\"\nFilm \"rgb\" \"integer "
+        "xresolution\" [ 4 ] \"integer yresolution\" [ 4 ]\nWorldBegin\n" + quad);
+    CHECK(applicable_specializations(*dark) == (kSpecLambertian | kSpecDifferentials));
+}
+
+TEST_CASE("every specialisation renders the general path's image bit for bit") {
+    // Each example scene, specialised against each specialisation forced off and against the
+    // general path: identical beauty, identical sample counts.
+    for (const char *rel : {"specialize/diffuse-box.pbrt", "cornell-box/scene.pbrt",
+                            "environment/scene.pbrt", "glossy-glass/scene.pbrt"}) {
+        CAPTURE(rel);
+        auto scene = example(rel);
+        const uint32_t applicable = applicable_specializations(*scene);
+        Rendered spec = render_with(*scene, 0);
+        for (uint32_t disabled : {uint32_t(kSpecAll), uint32_t(kSpecDifferentials),
+                                  uint32_t(kSpecLambertian), uint32_t(kSpecCull)}) {
+            CAPTURE(disabled);
+            Rendered general = render_with(*scene, disabled);
+            CHECK(general.stats.samples == spec.stats.samples);
+            CHECK(identical(general.rgb, spec.rgb));
+            if (disabled & applicable & kSpecCull) {
+                // The general path traces the shadow rays culling avoids (those with a light
+                // sample to aim at) and no others.
+                CHECK(general.stats.rays > spec.stats.rays);
+                CHECK(general.stats.rays - spec.stats.rays ==
+                      spec.stats.shadow_rays_avoided - general.stats.shadow_rays_avoided);
+            } else {
+                CHECK(general.stats.rays == spec.stats.rays);
+            }
+        }
+    }
+}
+
+TEST_CASE("a light behind every shading point costs no shadow ray") {
+    // A point light below a floor seen from above: every light sample has a zero BSDF value
+    // (the light is under the surface), so no shadow ray is traced and the image is black.
+    auto scene = scene_from_string(
+        "LookAt 0 3 0  0 0 0  0 0 1\nCamera \"perspective\" \"float fov\" [ 30 ]\n"
+        "Film \"rgb\" \"integer xresolution\" [ 8 ] \"integer yresolution\" [ 8 ]\n"
+        "Sampler \"zsobol\" \"integer pixelsamples\" [ 4 ]\n"
+        "Integrator \"path\" \"integer maxdepth\" [ 1 ]\nWorldBegin\n"
+        "LightSource \"point\" \"point3 from\" [ 0 -1 0 ] \"rgb I\" [ 10 10 10 ]\n"
+        "Material \"diffuse\"\n"
+        "Shape \"trianglemesh\" \"point3 P\" [ -9 0 -9  9 0 -9  9 0 9  -9 0 9 ]"
+        " \"integer indices\" [ 0 1 2  0 2 3 ]\n");
+    Rendered spec = render_with(*scene, 0);
+    Rendered general = render_with(*scene, kSpecCull);
+    const uint64_t samples = 8 * 8 * 4;
+    REQUIRE(spec.stats.samples == samples);
+    // Specialised: one camera ray and one (BSDF-sampled, escaping) continuation per sample at
+    // most; every light sample avoided.
+    CHECK(spec.stats.shadow_rays_avoided == samples);
+    CHECK(general.stats.shadow_rays_avoided == 0);
+    CHECK(general.stats.rays == spec.stats.rays + samples);
+    CHECK(identical(general.rgb, spec.rgb));
+    for (float v : spec.rgb) CHECK(v == 0.f);
+}
+
+TEST_CASE("a spot light never costs a shadow ray outside its cone") {
+    // A narrow spot aimed at the floor's centre: points outside the cone get no shadow ray;
+    // the number avoided is the number of light samples outside the cone (all but the spot's
+    // disc), and the image equals the general path's.
+    auto scene = scene_from_string(
+        "LookAt 0 5 0  0 0 0  0 0 1\nCamera \"perspective\" \"float fov\" [ 60 ]\n"
+        "Film \"rgb\" \"integer xresolution\" [ 16 ] \"integer yresolution\" [ 16 ]\n"
+        "Sampler \"zsobol\" \"integer pixelsamples\" [ 4 ]\n"
+        "Integrator \"path\" \"integer maxdepth\" [ 1 ]\nWorldBegin\n"
+        "LightSource \"spot\" \"point3 from\" [ 0 2 0 ] \"point3 to\" [ 0 0 0 ]"
+        " \"float coneangle\" [ 10 ] \"float conedeltaangle\" [ 2 ] \"rgb I\" [ 10 10 10 ]\n"
+        "Material \"diffuse\"\n"
+        "Shape \"trianglemesh\" \"point3 P\" [ -9 0 -9  9 0 -9  9 0 9  -9 0 9 ]"
+        " \"integer indices\" [ 0 1 2  0 2 3 ]\n");
+    Rendered spec = render_with(*scene, 0);
+    Rendered general = render_with(*scene, kSpecCull);
+    CHECK(identical(general.rgb, spec.rgb));
+    // Most of the floor lies outside a 10-degree cone seen from 2 units up. The spot's light
+    // sample itself carries nothing there, so even the general path has no ray to trace.
+    CHECK(spec.stats.shadow_rays_avoided > spec.stats.samples / 2);
+    CHECK(spec.stats.shadow_rays_avoided < spec.stats.samples);
+    CHECK(general.stats.shadow_rays_avoided == spec.stats.shadow_rays_avoided);
+    CHECK(general.stats.rays == spec.stats.rays);
+    // Rays = camera rays + BSDF continuations + shadow rays: the lit disc's samples.
+    CHECK(spec.stats.rays - spec.stats.samples * 2 ==
+          spec.stats.samples - spec.stats.shadow_rays_avoided);
+}
