@@ -216,8 +216,10 @@ void Geometry::add_mesh(int group, TriangleMesh mesh) {
     rtcSetSharedGeometryBuffer(geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3,
                                m->indices.data(), 0, 3 * sizeof(uint32_t),
                                m->triangle_count());
-    if (m->alpha_texture || m->alpha < 1.f) {
-        // Only cut-out meshes pay for filter callbacks.
+    const bool alpha = m->alpha_texture || m->alpha < 1.f;
+    if (!alpha) ++opaque_mesh_count_;
+    if (alpha || filter_every_mesh_) {
+        // Only cut-out meshes pay for filter callbacks (unless the general path is forced).
         rtcSetGeometryUserData(geom, m.get());
         rtcSetGeometryIntersectFilterFunction(geom, alpha_filter);
         rtcSetGeometryOccludedFilterFunction(geom, alpha_filter);

@@ -111,6 +111,11 @@ class Geometry {
     Vec3f bounds_max() const { return bmax_; }
     size_t triangle_count() const { return triangle_count_; }
     size_t instance_count() const { return instance_count_; }
+    /// Meshes added without an alpha test (all levels).
+    size_t opaque_mesh_count() const { return opaque_mesh_count_; }
+    /// The general path of the "alpha" specialisation (renderer/specialize.h): every mesh gets
+    /// the alpha filter callbacks, which accept every hit of an opaque mesh. Call before add_*.
+    void set_filter_every_mesh(bool on) { filter_every_mesh_ = on; }
     /// The top-level Embree scene (benchmarks compare against raw Embree calls on it).
     RTCScene rtc_scene() const;
     /// Meshes of the top level (for building area lights).
@@ -134,7 +139,8 @@ class Geometry {
     std::vector<int32_t> object_base_;
     int32_t object_count_ = 0;
     Vec3f bmin_, bmax_;
-    size_t triangle_count_ = 0, instance_count_ = 0;
+    size_t triangle_count_ = 0, instance_count_ = 0, opaque_mesh_count_ = 0;
+    bool filter_every_mesh_ = false;
 };
 
 }  // namespace tessera

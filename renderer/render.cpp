@@ -181,7 +181,9 @@ std::unique_ptr<SampleSource> make_integrator(const Scene &scene, const std::str
 RenderReport run_render(const RenderOptions &opt) {
     RenderReport rep;
     auto t0 = std::chrono::steady_clock::now();
-    std::unique_ptr<Scene> scene = load_scene(opt.scene, opt.overrides);
+    SceneOverrides overrides = opt.overrides;
+    overrides.no_specialize |= opt.no_specialize;
+    std::unique_ptr<Scene> scene = load_scene(opt.scene, overrides);
     rep.load_s = seconds_since(t0);
     if (!opt.quiet) std::fprintf(stderr, "tessera: %s\n", scene->describe().c_str());
 
@@ -389,10 +391,9 @@ RenderReport run_render(const RenderOptions &opt) {
         {
             // The code paths chosen (renderer/specialize.h).
             const uint32_t applicable = applicable_specializations(*scene);
-            const auto *path = dynamic_cast<const PathIntegrator *>(integrator.get());
             j["specializations"] = {
                 {"applicable", specialization_names(applicable)},
-                {"used", path ? specialization_names(path->specializations()) : "none"},
+                {"used", specialization_names(applicable & ~opt.no_specialize)},
                 {"forced_general", specialization_names(applicable & opt.no_specialize)}};
             j["code_path"] = integrator->describe();
         }

@@ -55,6 +55,9 @@ struct SceneOverrides {
     /// --clamp: the firefly clamp, RenderSettings::max_component (Film "maxcomponentvalue").
     /// Default-initialised so that positional SceneOverrides{...} lists need not name it.
     std::optional<float> max_component = std::nullopt;
+    /// Specialization bits (renderer/specialize.h) forced onto the general path where the scene
+    /// is built (the "alpha" one: filter callbacks on every mesh).
+    uint32_t no_specialize = 0;
 };
 
 class Scene {

@@ -15,6 +15,7 @@
 #endif
 #include "renderer/pbrt_parser.h"
 #include "renderer/scene.h"
+#include "renderer/specialize.h"
 
 namespace tessera {
 
@@ -511,6 +512,7 @@ std::unique_ptr<Scene> build_scene(const SceneDesc &d, const SceneOverrides &ov)
     MaterialSet mats(d.materials, *sc->textures);
 
     sc->geometry = std::make_unique<Geometry>();
+    sc->geometry->set_filter_every_mesh(ov.no_specialize & kSpecAlpha);
     Builder b{d, *sc, mats};
     for (const ShapeDesc &sd : d.shapes)
         b.add_shape(sc->geometry->top_level(), sd, sd.render_from_object, true);

@@ -16,6 +16,7 @@ constexpr Named kNames[] = {
     {"differentials", kSpecDifferentials},
     {"lambertian", kSpecLambertian},
     {"cull", kSpecCull},
+    {"alpha", kSpecAlpha},
 };
 
 }  // namespace
@@ -66,6 +67,7 @@ uint32_t applicable_specializations(const Scene &scene) {
     for (const auto &m : scene.materials) lambertian &= m->constant_lambertian().has_value();
     if (lambertian) mask |= kSpecLambertian;
     if (!scene.lights.empty()) mask |= kSpecCull;
+    if (scene.geometry && scene.geometry->opaque_mesh_count() > 0) mask |= kSpecAlpha;
     return mask;
 }
 

@@ -14,8 +14,11 @@
 //   cull           A light sample that cannot contribute -- behind the shading surface (zero
 //                  BSDF value), on the back of a one-sided emitter, outside a spot cone, zero
 //                  radiance -- costs no shadow ray. Counted in --stats shadow_rays_avoided.
+//   alpha          Embree intersection-filter callbacks only on alpha-tested meshes; the
+//                  general path attaches them to every mesh (they accept every hit of an
+//                  opaque one). Chosen where the scene is built (SceneOverrides::no_specialize).
 // Always on (not switchable): Embree geometry types only for what exists (user geometry only
-// for spheres and disks, intersection filters only on alpha-tested meshes), no environment
+// for spheres and disks), no environment
 // distribution without an image-based light, converged tiles left after the region-tree check,
 // AOV buffers only when asked for.
 #pragma once
@@ -33,7 +36,8 @@ enum Specialization : uint32_t {
     kSpecDifferentials = 1u << 0,  ///< "differentials"
     kSpecLambertian = 1u << 1,     ///< "lambertian"
     kSpecCull = 1u << 2,           ///< "cull"
-    kSpecAll = (1u << 3) - 1,
+    kSpecAlpha = 1u << 3,          ///< "alpha"
+    kSpecAll = (1u << 4) - 1,
 };
 
 /// Parses a comma-separated list of specialisation names ("all" = every one) into bits.

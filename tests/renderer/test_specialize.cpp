@@ -36,8 +36,10 @@ Rendered render_with(const Scene &scene, uint32_t disabled) {
     return r;
 }
 
-std::unique_ptr<Scene> example(const std::string &rel, int size = 24, int spp = 4) {
+std::unique_ptr<Scene> example(const std::string &rel, uint32_t no_specialize = 0, int size = 24,
+                               int spp = 4) {
     SceneOverrides ov;
+    ov.no_specialize = no_specialize;
     ov.width = size;
     ov.height = size;
     ov.spp = spp;
@@ -75,7 +77,8 @@ TEST_CASE("a scene gets exactly the specialisations whose property it has") {
     // Diffuse-only, untextured, one area light: all three.
     CHECK(applicable_specializations(*example("specialize/diffuse-box.pbrt")) == kSpecAll);
     // A checkerboard floor, glass and copper: only culling.
-    CHECK(applicable_specializations(*example("cornell-box/scene.pbrt")) == kSpecCull);
+    CHECK(applicable_specializations(*example("cornell-box/scene.pbrt")) ==
+          (kSpecCull | kSpecAlpha));
     const std::string head = tiny_lit_scene_header(4, 4);
     const std::string quad = "Shape \"trianglemesh\" \"point3 P\" [ -1 -1 0  1 -1 0  1 1 0  -1 1 0 ]"
                              " \"integer indices\" [ 0 1 2  0 2 3 ]\n";
@@ -83,20 +86,28 @@ TEST_CASE("a scene gets exactly the specialisations whose property it has") {
     auto textured = scene_from_string(
         head + "Texture \"c\" \"spectrum\" \"checkerboard\"\nMaterial \"diffuse\" \"texture "
                "reflectance\" \"c\"\n" + quad);
-    CHECK(applicable_specializations(*textured) == kSpecCull);
+    CHECK(applicable_specializations(*textured) == (kSpecCull | kSpecAlpha));
     // A constant diffuse with a bump map: textured (no differentials skipping), not lambertian.
     auto bumped = scene_from_string(
         head + "Texture \"b\" \"float\" \"checkerboard\"\nMaterial \"diffuse\" \"texture "
                "displacement\" \"b\"\n" + quad);
-    CHECK(applicable_specializations(*bumped) == kSpecCull);
+    CHECK(applicable_specializations(*bumped) == (kSpecCull | kSpecAlpha));
     // A smooth conductor: untextured, not lambertian.
     auto metal = scene_from_string(head + "Material \"conductor\"\n" + quad);
-    CHECK(applicable_specializations(*metal) == (kSpecCull | kSpecDifferentials));
+    CHECK(applicable_specializations(*metal) == (kSpecCull | kSpecDifferentials | kSpecAlpha));
     // No light: nothing to cull.
     auto dark = scene_from_string(
         "LookAt 0 0 -3  0 0 0  0 1 0\nCamera \"perspective\"\nFilm \"rgb\" \"integer "
         "xresolution\" [ 4 ] \"integer yresolution\" [ 4 ]\nWorldBegin\n" + quad);
-    CHECK(applicable_specializations(*dark) == (kSpecLambertian | kSpecDifferentials));
+    CHECK(applicable_specializations(*dark) ==
+          (kSpecLambertian | kSpecDifferentials | kSpecAlpha));
+    // Only an alpha-tested mesh (and no light): no opaque mesh to spare the filter.
+    auto cutout = scene_from_string(
+        "LookAt 0 0 -3  0 0 0  0 1 0\nCamera \"perspective\"\nFilm \"rgb\" \"integer "
+        "xresolution\" [ 4 ] \"integer yresolution\" [ 4 ]\nWorldBegin\n"
+        "Shape \"trianglemesh\" \"point3 P\" [ -1 -1 0  1 -1 0  1 1 0  -1 1 0 ]"
+        " \"integer indices\" [ 0 1 2  0 2 3 ] \"float alpha\" [ 0.5 ]\n");
+    CHECK(applicable_specializations(*cutout) == (kSpecLambertian | kSpecDifferentials));
 }
 
 TEST_CASE("every specialisation renders the general path's image bit for bit") {
@@ -109,9 +120,12 @@ TEST_CASE("every specialisation renders the general path's image bit for bit") {
         const uint32_t applicable = applicable_specializations(*scene);
         Rendered spec = render_with(*scene, 0);
         for (uint32_t disabled : {uint32_t(kSpecAll), uint32_t(kSpecDifferentials),
-                                  uint32_t(kSpecLambertian), uint32_t(kSpecCull)}) {
+                                  uint32_t(kSpecLambertian), uint32_t(kSpecCull),
+                                  uint32_t(kSpecAlpha)}) {
             CAPTURE(disabled);
-            Rendered general = render_with(*scene, disabled);
+            // The alpha specialisation is chosen where the scene is built.
+            auto general_scene = example(rel, disabled);
+            Rendered general = render_with(*general_scene, disabled);
             CHECK(general.stats.samples == spec.stats.samples);
             CHECK(identical(general.rgb, spec.rgb));
             if (disabled & applicable & kSpecCull) {
