@@ -144,6 +144,12 @@ int main(int argc, char **argv) {
         ->check(CLI::NonNegativeNumber);
     render->add_option("--resume", ro.resume, "Continue from a checkpoint EXR");
     render->add_option("--stats", ro.stats_path, "Write render statistics as JSON");
+    std::string aov_list;
+    CLI::Option *aov_option = render->add_option(
+        "--aov", aov_list,
+        "AOV layers to keep and write: a comma list of albedo, normal, depth, or all, or none "
+        "(default: the scene's Film, \"gbuffer\" all, \"rgb\" none; --resume keeps the "
+        "checkpoint's)");
     render->add_flag("--half", ro.half, "Write half-float EXR colour channels");
     render->add_flag("--no-png", [&](int64_t) { ro.write_png = false; }, "Do not write the PNG");
     render->add_option("--ocio-config", ro.display.config_path,
@@ -213,6 +219,14 @@ int main(int argc, char **argv) {
             if (max_depth >= 0) ro.overrides.max_depth = max_depth;
             if (seed >= 0) ro.overrides.seed = uint32_t(seed);
             if (clamp > 0) ro.overrides.max_component = clamp;
+            if (aov_option->count() > 0) {
+                try {
+                    ro.overrides.aovs = tessera::sampling::AovSet::parse(aov_list);
+                } catch (const std::invalid_argument &e) {
+                    std::fprintf(stderr, "tessera: --aov: %s\n", e.what());
+                    return 2;
+                }
+            }
             tessera::run_render(ro);
             return 0;
         }
