@@ -25,18 +25,34 @@ struct Channel {
     bool is_float;
 };
 
-std::vector<Channel> channel_layout() {
+/// The channels of one AOV in the checkpoint (the EXR output's names).
+std::vector<std::string> aov_channels(sampling::Aov a) {
+    switch (a) {
+        case sampling::Aov::Albedo:
+            return {"albedo.R", "albedo.G", "albedo.B"};
+        case sampling::Aov::Normal:
+            return {"normal.X", "normal.Y", "normal.Z"};
+        case sampling::Aov::Depth:
+            return {"depth.Z"};
+    }
+    return {};
+}
+
+/// The channel layout for a film keeping `aovs`: the beauty words, then the kept AOVs' channels
+/// in canonical order. A checkpoint written before AOVs were optional has the channels of
+/// AovSet::all() (in another order; reading maps channels by name).
+std::vector<Channel> channel_layout(sampling::AovSet aovs) {
     std::vector<Channel> ch;
     for (const char *c : {"R", "G", "B"}) ch.push_back({c, true});  // mean, for viewers
     for (const char *buf : {"sum", "half"})
         for (const char *c : {"R", "G", "B"})
             for (const char *part : {"lo", "hi"})
                 ch.push_back({std::string(buf) + "." + c + "_" + part, false});
-    for (const char *c : {"R", "G", "B"}) ch.push_back({std::string("albedo.") + c, true});
-    for (const char *c : {"X", "Y", "Z"}) ch.push_back({std::string("normal.") + c, true});
-    ch.push_back({"depth.Z", true});
     for (const char *c : {"taken", "accepted", "half_accepted", "hits"})
         ch.push_back({std::string("count.") + c, false});
+    for (sampling::Aov a : sampling::kAllAovs)
+        if (aovs.has(a))
+            for (const std::string &name : aov_channels(a)) ch.push_back({name, true});
     return ch;
 }
 
@@ -51,8 +67,8 @@ float bits_float(uint32_t u) {
     return f;
 }
 
-/// Packs one pixel into the layout's 4-byte words.
-void pack(const PixelData &p, uint32_t *w) {
+/// Packs pixel `i` of the film state into the layout's 4-byte words.
+void pack(const PixelData &p, const sampling::Film::AovData &aov, size_t i, uint32_t *w) {
     size_t k = 0;
     uint32_t n = p.accepted;
     for (int c = 0; c < 3; ++c) w[k++] = float_bits(n ? float(p.sum[c] / n) : 0.f);
@@ -63,16 +79,19 @@ void pack(const PixelData &p, uint32_t *w) {
             w[k++] = uint32_t(bits);
             w[k++] = uint32_t(bits >> 32);
         }
-    for (int c = 0; c < 3; ++c) w[k++] = float_bits(p.albedo[c]);
-    for (int c = 0; c < 3; ++c) w[k++] = float_bits(p.normal[c]);
-    w[k++] = float_bits(p.depth);
     w[k++] = p.taken;
     w[k++] = p.accepted;
     w[k++] = p.half_accepted;
     w[k++] = p.hits;
+    if (!aov.albedo.empty())
+        for (float v : aov.albedo[i]) w[k++] = float_bits(v);
+    if (!aov.normal.empty())
+        for (float v : aov.normal[i]) w[k++] = float_bits(v);
+    if (!aov.depth.empty()) w[k++] = float_bits(aov.depth[i]);
 }
 
-void unpack(const uint32_t *w, PixelData &p) {
+/// Unpacks the layout's words into pixel `i`; `aov` already has the kept AOVs' sizes.
+void unpack(const uint32_t *w, PixelData &p, sampling::Film::AovData &aov, size_t i) {
     size_t k = 3;  // skip the mean
     for (double *buf : {p.sum, p.half_sum})
         for (int c = 0; c < 3; ++c) {
@@ -80,20 +99,39 @@ void unpack(const uint32_t *w, PixelData &p) {
             k += 2;
             std::memcpy(&buf[c], &bits, 8);
         }
-    for (int c = 0; c < 3; ++c) p.albedo[c] = bits_float(w[k++]);
-    for (int c = 0; c < 3; ++c) p.normal[c] = bits_float(w[k++]);
-    p.depth = bits_float(w[k++]);
     p.taken = w[k++];
     p.accepted = w[k++];
     p.half_accepted = w[k++];
     p.hits = w[k++];
+    if (!aov.albedo.empty())
+        for (float &v : aov.albedo[i]) v = bits_float(w[k++]);
+    if (!aov.normal.empty())
+        for (float &v : aov.normal[i]) v = bits_float(w[k++]);
+    if (!aov.depth.empty()) aov.depth[i] = bits_float(w[k++]);
+}
+
+/// The AOVs whose channels the file has; part of an AOV's channels is a damaged file.
+sampling::AovSet aovs_in(const OIIO::ImageSpec &spec, const std::string &path) {
+    sampling::AovSet set;
+    for (sampling::Aov a : sampling::kAllAovs) {
+        size_t found = 0;
+        const std::vector<std::string> names = aov_channels(a);
+        for (const std::string &name : names)
+            found += size_t(std::count(spec.channelnames.begin(), spec.channelnames.end(), name));
+        if (found == names.size())
+            set = set.with(a);
+        else if (found != 0)
+            throw SceneError(path + ":0: checkpoint has only part of the " +
+                             sampling::aov_name(a) + " channels (damaged file)");
+    }
+    return set;
 }
 
 }  // namespace
 
 void write_checkpoint(const std::string &path, const sampling::Film &film,
                       const CheckpointState &state) {
-    const std::vector<Channel> layout = channel_layout();
+    const std::vector<Channel> layout = channel_layout(film.aovs());
     const int nch = int(layout.size());
     OIIO::ImageSpec spec(int(film.width()), int(film.height()), nch, OIIO::TypeDesc::FLOAT);
     spec.channelnames.clear();
@@ -113,7 +151,8 @@ void write_checkpoint(const std::string &path, const sampling::Film &film,
 
     const std::vector<PixelData> &px = film.raw_pixels();
     std::vector<uint32_t> words(px.size() * size_t(nch));
-    for (size_t i = 0; i < px.size(); ++i) pack(px[i], &words[i * size_t(nch)]);
+    for (size_t i = 0; i < px.size(); ++i)
+        pack(px[i], film.raw_aovs(), i, &words[i * size_t(nch)]);
 
     write_atomically(path, [&](const std::string &tmp) {
         auto out = OIIO::ImageOutput::create("exr");
@@ -129,17 +168,30 @@ void write_checkpoint(const std::string &path, const sampling::Film &film,
     });
 }
 
+sampling::AovSet checkpoint_aovs(const std::string &path) {
+    auto in = OIIO::ImageInput::open(path);
+    if (!in) throw SceneError(path + ":0: cannot read checkpoint: " + OIIO::geterror());
+    const OIIO::ImageSpec &spec = in->spec();
+    if (spec.get_string_attribute("tessera:format") != kFormatTag)
+        throw SceneError(path + ":0: not a Tessera checkpoint");
+    return aovs_in(spec, path);
+}
+
 CheckpointState read_checkpoint(const std::string &path, sampling::Film &film) {
     auto in = OIIO::ImageInput::open(path);
     if (!in) throw SceneError(path + ":0: cannot read checkpoint: " + OIIO::geterror());
     const OIIO::ImageSpec &spec = in->spec();
     if (spec.get_string_attribute("tessera:format") != kFormatTag)
         throw SceneError(path + ":0: not a Tessera checkpoint");
+    const sampling::AovSet aovs = aovs_in(spec, path);
+    if (aovs != film.aovs())
+        throw SceneError(path + ":0: checkpoint has the AOVs " + aovs.describe() +
+                         ", the render keeps " + film.aovs().describe());
     if (uint32_t(spec.width) != film.width() || uint32_t(spec.height) != film.height())
         throw SceneError(path + ":0: checkpoint is " + std::to_string(spec.width) + "x" +
                          std::to_string(spec.height) + ", the render is " +
                          std::to_string(film.width()) + "x" + std::to_string(film.height()));
-    const std::vector<Channel> layout = channel_layout();
+    const std::vector<Channel> layout = channel_layout(aovs);
     // The file may store channels in another order (OpenEXR sorts them): map by name.
     std::vector<int> file_index(layout.size(), -1);
     for (size_t c = 0; c < layout.size(); ++c)
@@ -154,11 +206,15 @@ CheckpointState read_checkpoint(const std::string &path, sampling::Film &film) {
     if (!in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::UNKNOWN, file_words.data()))
         throw SceneError(path + ":0: cannot read checkpoint pixels: " + in->geterror());
     std::vector<PixelData> px(size_t(spec.width) * size_t(spec.height));
+    sampling::Film::AovData aov;
+    if (aovs.has(sampling::Aov::Albedo)) aov.albedo.resize(px.size());
+    if (aovs.has(sampling::Aov::Normal)) aov.normal.resize(px.size());
+    if (aovs.has(sampling::Aov::Depth)) aov.depth.resize(px.size());
     std::vector<uint32_t> w(layout.size());
     for (size_t i = 0; i < px.size(); ++i) {
         for (size_t c = 0; c < layout.size(); ++c)
             w[c] = file_words[i * size_t(spec.nchannels) + size_t(file_index[c])];
-        unpack(w.data(), px[i]);
+        unpack(w.data(), px[i], aov, i);
         // A checkpoint is trusted to resume hours of work: reject values no render writes
         // rather than carry NaN or impossible counts into the image.
         const PixelData &q = px[i];
@@ -192,7 +248,7 @@ CheckpointState read_checkpoint(const std::string &path, sampling::Film &film) {
     uint64_t nan = uint64_t(std::min(nan_d, 1e18));
     st.scene = spec.get_string_attribute("tessera:scene");
     st.settings = spec.get_string_attribute("tessera:settings");
-    film.restore(std::move(px), nan);
+    film.restore(std::move(px), std::move(aov), nan);
     return st;
 }
 

@@ -5,6 +5,11 @@
 // Doubles are stored bit-exactly as two UINT channels (low and high 32 bits), counts as UINT,
 // AOV running means as FLOAT, so that "render N passes, checkpoint, resume to M passes" equals
 // "render M passes straight" bit for bit in deterministic mode. Written atomically.
+//
+// Only the AOVs the film keeps are stored (channels albedo.RGB, normal.XYZ, depth.Z); the set a
+// checkpoint holds is read from its channels, so checkpoints written before AOVs were optional
+// (all three always present) read as AovSet::all(). A checkpoint resumes only into a film with
+// exactly its AOVs: an AOV missing from it cannot start from zero without wrong means.
 #pragma once
 
 #include <cstdint>
@@ -27,8 +32,13 @@ struct CheckpointState {
 void write_checkpoint(const std::string &path, const sampling::Film &film,
                       const CheckpointState &state);
 
-/// Reads a checkpoint into `film` (which must have the checkpoint's resolution) and returns
-/// its state. Throws SceneError ("path:0: message") for a missing, foreign or mismatched file.
+/// The AOVs stored in the checkpoint at `path` (reads the header only). Throws SceneError
+/// ("path:0: message") for a missing or foreign file.
+sampling::AovSet checkpoint_aovs(const std::string &path);
+
+/// Reads a checkpoint into `film` (which must have the checkpoint's resolution and AOVs, see
+/// checkpoint_aovs) and returns its state. Throws SceneError ("path:0: message") for a missing,
+/// foreign or mismatched file.
 CheckpointState read_checkpoint(const std::string &path, sampling::Film &film);
 
 }  // namespace tessera

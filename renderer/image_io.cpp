@@ -249,9 +249,14 @@ void write_film_exr(const std::string &path, const sampling::Film &film,
                     const ExrWriteOptions &options, std::vector<ImageLayer> extra) {
     std::vector<ImageLayer> layers;
     layers.push_back({"", {"R", "G", "B"}, film.beauty_rgb(), false});
-    layers.push_back({"albedo", {"R", "G", "B"}, film.albedo_rgb(), false});
-    layers.push_back({"normal", {"X", "Y", "Z"}, film.normal_xyz(), false});
-    layers.push_back({"depth", {"Z"}, film.depth(), true});
+    // Only the AOVs the film keeps (Film "gbuffer" or --aov).
+    const sampling::AovSet aovs = film.aovs();
+    if (aovs.has(sampling::Aov::Albedo))
+        layers.push_back({"albedo", {"R", "G", "B"}, film.albedo_rgb(), false});
+    if (aovs.has(sampling::Aov::Normal))
+        layers.push_back({"normal", {"X", "Y", "Z"}, film.normal_xyz(), false});
+    if (aovs.has(sampling::Aov::Depth))
+        layers.push_back({"depth", {"Z"}, film.depth(), true});
     layers.push_back({"spp", {"Y"}, film.spp(), true});
     for (ImageLayer &l : extra) layers.push_back(std::move(l));
     write_exr(path, film.width(), film.height(), layers, options);

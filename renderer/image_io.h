@@ -4,6 +4,7 @@
 // EXR channel names (OpenEXR multilayer convention "layer.channel"; the beauty is the
 // unnamed default layer, so every viewer shows it first):
 //   R, G, B                    beauty: mean radiance, linear Rec.709/sRGB primaries
+// the AOV layers, each only when the film keeps it (Film "gbuffer" or --aov; sampling/aov_set.h):
 //   albedo.R, albedo.G, albedo.B    first-hit albedo, mean over samples that hit
 //   normal.X, normal.Y, normal.Z    first-hit shading normal, world space, mean over hits
 //   depth.Z                    first-hit distance along the primary ray, scene units, +inf: no hit
@@ -60,7 +61,8 @@ struct ExrWriteOptions {
 void write_exr(const std::string &path, uint32_t width, uint32_t height,
                const std::vector<ImageLayer> &layers, const ExrWriteOptions &options = {});
 
-/// Writes the film's beauty, albedo, normal, depth and spp layers (names in the file comment),
+/// Writes the film's beauty, the AOV layers it keeps (albedo, normal, depth; see
+/// Film::aovs()) and spp (names in the file comment),
 /// then the `extra` layers (e.g. the adaptive sampler's error estimate). Not thread-safe against
 /// concurrent add_sample on the film.
 void write_film_exr(const std::string &path, const sampling::Film &film,

@@ -82,9 +82,9 @@ void check_memory(uint64_t bytes, const std::string &what, const FileLoc &loc) {
                                   " this process may use");
 }
 
-uint64_t film_memory_bytes(uint64_t width, uint64_t height) {
+uint64_t film_memory_bytes(uint64_t width, uint64_t height, sampling::AovSet aovs) {
     return mul_sat(mul_sat(width, height),
-                   sampling::Film::bytes_per_pixel() + kOutputBytesPerPixel);
+                   sampling::Film::bytes_per_pixel_for(aovs) + kOutputBytesPerPixel);
 }
 
 uint64_t mesh_memory_bytes(uint64_t vertices, uint64_t triangles) {
@@ -94,7 +94,7 @@ uint64_t mesh_memory_bytes(uint64_t vertices, uint64_t triangles) {
 }
 
 void check_film(int64_t width, int64_t height, int64_t spp, const FileLoc &loc,
-                const FileLoc &spp_loc) {
+                const FileLoc &spp_loc, sampling::AovSet aovs) {
     const std::string res = std::to_string(width) + "x" + std::to_string(height);
     if (width <= 0 || height <= 0)
         throw SceneError(loc, "film resolution " + res + ": width and height must be positive");
@@ -109,7 +109,8 @@ void check_film(int64_t width, int64_t height, int64_t spp, const FileLoc &loc,
         throw SceneError(spp_loc, "pixelsamples " + std::to_string(spp) +
                                       " is larger than the maximum of " +
                                       std::to_string(kMaxSpp));
-    check_memory(film_memory_bytes(uint64_t(width), uint64_t(height)), "a film of " + res, loc);
+    check_memory(film_memory_bytes(uint64_t(width), uint64_t(height), aovs), "a film of " + res,
+                 loc);
 }
 
 void check_mesh(uint64_t vertices, uint64_t triangles, const std::string &what,

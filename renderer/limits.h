@@ -13,6 +13,7 @@
 #include <string>
 
 #include "renderer/scene_desc.h"
+#include "sampling/aov_set.h"
 
 namespace tessera {
 
@@ -51,8 +52,10 @@ std::string format_bytes(uint64_t bytes);
 /// `bytes` exceeds memory_budget_bytes(). `what` names the thing, e.g. "film 100000x100000".
 void check_memory(uint64_t bytes, const std::string &what, const FileLoc &loc);
 
-/// Memory a render of a width x height film needs (film plus kOutputBytesPerPixel), bytes.
-uint64_t film_memory_bytes(uint64_t width, uint64_t height);
+/// Memory a render of a width x height film keeping `aovs` needs (film plus
+/// kOutputBytesPerPixel), bytes. The default counts every AOV (an upper bound).
+uint64_t film_memory_bytes(uint64_t width, uint64_t height,
+                           sampling::AovSet aovs = sampling::AovSet::all());
 
 /// Memory a triangle mesh of `vertices` and `triangles` needs once built (positions, normals,
 /// uvs, indices, per-triangle light pointers and Embree's BVH at about 32 bytes a triangle).
@@ -61,7 +64,7 @@ uint64_t mesh_memory_bytes(uint64_t vertices, uint64_t triangles);
 /// Checks a film resolution and spp against the limits above and the memory budget; `loc`
 /// names where the value came from ("--resolution:0" or the Film directive). Throws SceneError.
 void check_film(int64_t width, int64_t height, int64_t spp, const FileLoc &loc,
-                const FileLoc &spp_loc);
+                const FileLoc &spp_loc, sampling::AovSet aovs = sampling::AovSet::all());
 
 /// Checks mesh sizes against kMaxMeshVertices/kMaxMeshTriangles and the memory budget.
 /// `what` names the mesh ("trianglemesh", "plymesh \"x.ply\""). Throws SceneError(loc, ...).

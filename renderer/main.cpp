@@ -145,6 +145,12 @@ int main(int argc, char **argv) {
         ->check(CLI::NonNegativeNumber);
     render->add_option("--resume", ro.resume, "Continue from a checkpoint EXR");
     render->add_option("--stats", ro.stats_path, "Write render statistics as JSON");
+    std::string aov_list;
+    CLI::Option *aov_option = render->add_option(
+        "--aov", aov_list,
+        "AOV layers to keep and write: a comma list of albedo, normal, depth, or all, or none "
+        "(default: the scene's Film, \"gbuffer\" all, \"rgb\" none; --resume keeps the "
+        "checkpoint's)");
     render->add_flag("--half", ro.half, "Write half-float EXR colour channels");
     render->add_flag("--no-png", [&](int64_t) { ro.write_png = false; }, "Do not write the PNG");
     render->add_option("--ocio-config", ro.display.config_path,
@@ -223,6 +229,14 @@ int main(int argc, char **argv) {
                     ro.no_specialize = tessera::parse_specializations(no_specialize);
                 } catch (const std::invalid_argument &e) {
                     std::fprintf(stderr, "tessera: --no-specialize: %s\n", e.what());
+                    return 2;
+                }
+            }
+            if (aov_option->count() > 0) {
+                try {
+                    ro.overrides.aovs = tessera::sampling::AovSet::parse(aov_list);
+                } catch (const std::invalid_argument &e) {
+                    std::fprintf(stderr, "tessera: --aov: %s\n", e.what());
                     return 2;
                 }
             }

@@ -226,7 +226,18 @@ RenderReport run_render(const RenderOptions &opt) {
                    display ? &*display : nullptr, &g_cancel, rep);
         return rep;
     }
-    sampling::Film film(uint32_t(scene->settings.width), uint32_t(scene->settings.height));
+    // A resumed render keeps exactly the checkpoint's AOVs: one it lacks has no running mean to
+    // continue, and starting it from zero would give wrong means.
+    sampling::AovSet aovs = scene->settings.aovs;
+    if (!opt.resume.empty()) {
+        sampling::AovSet stored = checkpoint_aovs(opt.resume);
+        if (opt.overrides.aovs && *opt.overrides.aovs != stored)
+            throw SceneError("--aov:0: the checkpoint " + opt.resume + " has the AOVs " +
+                             stored.describe() + "; a resumed render keeps them (asked for " +
+                             opt.overrides.aovs->describe() + ")");
+        aovs = stored;
+    }
+    sampling::Film film(uint32_t(scene->settings.width), uint32_t(scene->settings.height), aovs);
     if (opt.min_spp) sampler.min_spp = *opt.min_spp;
     if (opt.error) sampler.error = *opt.error;
     sched::AdaptiveOptions so = scheduler_options(*scene, sampler, opt.threads, opt.quiet);
@@ -342,6 +353,7 @@ RenderReport run_render(const RenderOptions &opt) {
     rep.max_spp = so.max_spp;
     rep.mean_spp = double(film.total_samples()) / double(uint64_t(film.width()) * film.height());
     rep.film_bytes_per_pixel = film.bytes_per_pixel();
+    rep.aovs = film.aovs().names();
     rep.peak_rss_bytes = peak_rss_bytes();
 
     if (!opt.stats_path.empty()) {
@@ -385,6 +397,7 @@ RenderReport run_render(const RenderOptions &opt) {
         j["cancelled"] = s.cancelled;
         j["out_of_time"] = s.out_of_time;
         j["film_bytes_per_pixel"] = rep.film_bytes_per_pixel;
+        j["aovs"] = rep.aovs;
         j["peak_rss_bytes"] = rep.peak_rss_bytes;
         j["features"] = scene->features.describe();
         j["shadow_rays_avoided"] = s.shadow_rays_avoided;

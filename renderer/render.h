@@ -52,7 +52,8 @@ SamplerSpec parse_sampler_spec(const std::string &text);
 struct RenderOptions {
     std::string scene;
     std::string output;             ///< EXR path ("" : from the scene's Film "filename")
-    SceneOverrides overrides;       ///< --spp (the maximum), --resolution, --seed, --max-depth
+    /// --spp (the maximum), --resolution, --seed, --max-depth, --clamp, --aov
+    SceneOverrides overrides;
     SamplerSpec sampler;            ///< --sampler
     std::optional<uint32_t> min_spp;   ///< --min-spp (wins over the sampler spec's)
     std::optional<double> error;       ///< --error (wins over the sampler spec's)
@@ -86,7 +87,8 @@ struct RenderReport {
     std::string exr_path, png_path, checkpoint_path;
     uint32_t width = 0, height = 0, max_spp = 0;
     double mean_spp = 0;
-    size_t film_bytes_per_pixel = 0;
+    size_t film_bytes_per_pixel = 0;  ///< Film::bytes_per_pixel() of the render's film
+    std::vector<std::string> aovs;    ///< names of the AOVs the film kept, canonical order
     size_t peak_rss_bytes = 0;
     // Frame plugins (real-time loop):
     std::vector<double> frame_ms;   ///< wall time of every frame

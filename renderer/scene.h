@@ -13,6 +13,7 @@
 #include "renderer/lights.h"
 #include "renderer/material.h"
 #include "renderer/texture.h"
+#include "sampling/aov_set.h"
 
 namespace tessera {
 
@@ -45,6 +46,9 @@ struct RenderSettings {
     /// Film "maxcomponentvalue": a sample's RGB is scaled down so its largest component is at
     /// most this (pbrt-v4 RGBFilm::AddSample); +inf = off.
     float max_component = kInfinity;
+    /// AOVs the film keeps and the EXR gets (pbrt-v4: Film "rgb" none, Film "gbuffer" albedo,
+    /// normal and depth), or --aov.
+    sampling::AovSet aovs;
     std::string scene_file;
 };
 
@@ -58,6 +62,8 @@ struct SceneOverrides {
     /// Specialization bits (renderer/specialize.h) forced onto the general path where the scene
     /// is built (the "alpha" one: filter callbacks on every mesh).
     uint32_t no_specialize = 0;
+    /// --aov: the AOVs to keep, RenderSettings::aovs (overrides the Film type's).
+    std::optional<sampling::AovSet> aovs = std::nullopt;
 };
 
 class Scene {

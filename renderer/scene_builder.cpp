@@ -71,7 +71,10 @@ void apply_settings(const SceneDesc &d, const SceneOverrides &ov, Scene &sc) {
     s.scene_file = d.main_file;
     if (d.film.present) {
         const ParamSet &ps = d.film.params;
-        if (d.film.type != "rgb")
+        // pbrt-v4: "gbuffer" adds the geometric AOVs to the RGB image; "rgb" has none.
+        if (d.film.type == "gbuffer")
+            s.aovs = sampling::AovSet::all();
+        else if (d.film.type != "rgb")
             warn(d.film.loc, "Film \"" + d.film.type + "\" is rendered as an \"rgb\" film");
         s.width = ps.get_int("xresolution", 1280);
         s.height = ps.get_int("yresolution", 720);
@@ -94,6 +97,14 @@ void apply_settings(const SceneDesc &d, const SceneOverrides &ov, Scene &sc) {
                                      "\" is not supported (no sensor simulation); ignored");
                 p->used = true;
             }
+        }
+        // pbrt-v4's GBufferFilm writes camera-space geometry by default; Tessera's AOVs are
+        // world space (renderer/image_io.h).
+        if (const Param *p = ps.find("coordinatesystem")) {
+            if (d.film.type == "gbuffer" && ps.get_string("coordinatesystem", "camera") != "world")
+                warn(p->loc, "Film \"gbuffer\": the normal AOV is written in world space, not "
+                             "camera space");
+            p->used = true;
         }
         ps.report_unused("Film");
     } else {
@@ -133,13 +144,14 @@ void apply_settings(const SceneDesc &d, const SceneOverrides &ov, Scene &sc) {
     if (ov.max_depth) s.max_depth = *ov.max_depth;
     if (ov.seed) s.seed = *ov.seed;
     if (ov.max_component) s.max_component = *ov.max_component;
+    if (ov.aovs) s.aovs = *ov.aovs;
     if (!(s.max_component > 0))
         throw SceneError(ov.max_component ? FileLoc{"--clamp", 0} : d.film.loc,
                          "the firefly clamp (maxcomponentvalue) must be positive");
     // Resolution, spp and the film's memory, before any geometry is loaded.
     check_film(s.width, s.height, s.spp,
                ov.width || ov.height ? FileLoc{"--resolution", 0} : d.film.loc,
-               ov.spp ? FileLoc{"--spp", 0} : d.sampler.loc);
+               ov.spp ? FileLoc{"--spp", 0} : d.sampler.loc, s.aovs);
 
     // Pixel filter (pbrt-v4 default: gaussian, radius 1.5, sigma 0.5).
     std::string ft = d.filter.present ? d.filter.type : "gaussian";

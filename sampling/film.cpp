@@ -1,15 +1,21 @@
-// Per-pixel accumulation: sums, half buffer, AOV running means, dropped-sample counting.
+// Per-pixel accumulation: sums, half buffer, the requested AOVs' running means, dropped-sample
+// counting.
 #include "sampling/film.h"
 
-#include <stdexcept>
-
+#include <algorithm>
 #include <cmath>
+#include <stdexcept>
 #include <sstream>
 
 namespace tessera::sampling {
 
-Film::Film(uint32_t width, uint32_t height)
-    : width_(width), height_(height), pixels_(size_t(width) * height) {}
+Film::Film(uint32_t width, uint32_t height, AovSet aovs)
+    : width_(width), height_(height), aovs_(aovs), pixels_(size_t(width) * height) {
+    const size_t n = pixels_.size();
+    if (aovs_.has(Aov::Albedo)) aov_.albedo.assign(n, Float3{0, 0, 0});
+    if (aovs_.has(Aov::Normal)) aov_.normal.assign(n, Float3{0, 0, 0});
+    if (aovs_.has(Aov::Depth)) aov_.depth.assign(n, 0.f);
+}
 
 void Film::add_sample(uint32_t px, uint32_t py, uint32_t sample_index, const Sample &s) {
     PixelData &p = at(px, py);
@@ -25,19 +31,25 @@ void Film::add_sample(uint32_t px, uint32_t py, uint32_t sample_index, const Sam
         ++p.half_accepted;
         for (int c = 0; c < 3; ++c) p.half_sum[c] += double(s.radiance[c]);
     }
+    if (aovs_.empty()) return;
     // A sample "hit" when its depth is finite; broken AOVs (non-finite) count as a miss so
-    // they never poison the running means.
+    // they never poison the running means. The test is the same whichever AOVs are kept, so
+    // that a film with only depth has the depth means of a film with all three.
     bool hit = std::isfinite(s.depth) && s.albedo.is_finite() && std::isfinite(s.normal.x) &&
                std::isfinite(s.normal.y) && std::isfinite(s.normal.z);
-    if (hit) {
-        ++p.hits;
-        float w = 1.f / float(p.hits);
-        for (int c = 0; c < 3; ++c) {
-            p.albedo[c] += (s.albedo[c] - p.albedo[c]) * w;
-            p.normal[c] += (s.normal[c] - p.normal[c]) * w;
-        }
-        p.depth += (s.depth - p.depth) * w;
+    if (!hit) return;
+    ++p.hits;
+    const float w = 1.f / float(p.hits);
+    const size_t i = size_t(py) * width_ + px;
+    if (!aov_.albedo.empty()) {
+        Float3 &a = aov_.albedo[i];
+        for (int c = 0; c < 3; ++c) a[size_t(c)] += (s.albedo[c] - a[size_t(c)]) * w;
     }
+    if (!aov_.normal.empty()) {
+        Float3 &nrm = aov_.normal[i];
+        for (int c = 0; c < 3; ++c) nrm[size_t(c)] += (s.normal[c] - nrm[size_t(c)]) * w;
+    }
+    if (!aov_.depth.empty()) aov_.depth[i] += (s.depth - aov_.depth[i]) * w;
 }
 
 PixelStats Film::pixel_stats(uint32_t px, uint32_t py) const {
@@ -69,6 +81,9 @@ uint64_t Film::total_samples() const {
 
 void Film::clear() {
     for (PixelData &p : pixels_) p = PixelData{};
+    std::fill(aov_.albedo.begin(), aov_.albedo.end(), Float3{0, 0, 0});
+    std::fill(aov_.normal.begin(), aov_.normal.end(), Float3{0, 0, 0});
+    std::fill(aov_.depth.begin(), aov_.depth.end(), 0.f);
     nan_count_.store(0, std::memory_order_relaxed);
 }
 
@@ -92,24 +107,26 @@ std::vector<float> Film::half_rgb() const {
     return out;
 }
 
-std::vector<float> Film::albedo_rgb() const {
-    std::vector<float> out(pixels_.size() * 3);
-    for (size_t i = 0; i < pixels_.size(); ++i)
-        for (int c = 0; c < 3; ++c) out[3 * i + c] = pixels_[i].albedo[c];
+namespace {
+
+/// Interleaves per-pixel triples; empty in, empty out (an AOV the film does not keep).
+std::vector<float> interleave(const std::vector<Film::Float3> &v) {
+    std::vector<float> out(v.size() * 3);
+    for (size_t i = 0; i < v.size(); ++i)
+        for (size_t c = 0; c < 3; ++c) out[3 * i + c] = v[i][c];
     return out;
 }
 
-std::vector<float> Film::normal_xyz() const {
-    std::vector<float> out(pixels_.size() * 3);
-    for (size_t i = 0; i < pixels_.size(); ++i)
-        for (int c = 0; c < 3; ++c) out[3 * i + c] = pixels_[i].normal[c];
-    return out;
-}
+}  // namespace
+
+std::vector<float> Film::albedo_rgb() const { return interleave(aov_.albedo); }
+
+std::vector<float> Film::normal_xyz() const { return interleave(aov_.normal); }
 
 std::vector<float> Film::depth() const {
-    std::vector<float> out(pixels_.size());
-    for (size_t i = 0; i < pixels_.size(); ++i)
-        out[i] = pixels_[i].hits ? pixels_[i].depth : kInfinity;
+    std::vector<float> out(aov_.depth.size());
+    for (size_t i = 0; i < out.size(); ++i)
+        out[i] = pixels_[i].hits ? aov_.depth[i] : kInfinity;
     return out;
 }
 
@@ -121,16 +138,23 @@ std::vector<float> Film::spp() const {
 
 std::string Film::describe() const {
     std::ostringstream os;
-    os << "Film(" << width_ << "x" << height_ << ", " << bytes_per_pixel() << " B/pixel, "
+    os << "Film(" << width_ << "x" << height_ << ", AOVs " << aovs_.describe() << ", "
+       << bytes_per_pixel() << " B/pixel, "
        << (double(bytes_per_pixel()) * pixels_.size() / (1024.0 * 1024.0)) << " MiB, "
        << total_samples() << " samples, " << nan_count() << " dropped non-finite)";
     return os.str();
 }
 
-void Film::restore(std::vector<PixelData> pixels, uint64_t nan_count) {
-    if (pixels.size() != pixels_.size())
+void Film::restore(std::vector<PixelData> pixels, AovData aovs, uint64_t nan_count) {
+    const size_t n = pixels_.size();
+    if (pixels.size() != n)
         throw std::invalid_argument("Film::restore: pixel count does not match the film");
+    if (aovs.albedo.size() != aov_.albedo.size() || aovs.normal.size() != aov_.normal.size() ||
+        aovs.depth.size() != aov_.depth.size())
+        throw std::invalid_argument("Film::restore: the AOVs do not match the film's (" +
+                                    aovs_.describe() + ")");
     pixels_ = std::move(pixels);
+    aov_ = std::move(aovs);
     nan_count_.store(nan_count, std::memory_order_relaxed);
 }
 

@@ -7,6 +7,9 @@
 // keep the mean of 10^6 samples to about 1e-10 relative error (floats would lose ~1e-2).
 // AOVs (albedo, normal, depth) are running means in float over the samples that hit something
 // (finite depth); a running mean m += (x - m) / n stays within ~sqrt(n) ulps, enough for AOVs.
+// Only the AOVs the film was built with (an AovSet, default none) are kept: each lives in its
+// own array beside the beauty array, and one that was not asked for costs no memory and no
+// work (issue 7). Beauty: 64 bytes a pixel; albedo and normal add 12 each, depth 4.
 //
 // Non-finite radiance: a sample whose radiance has a NaN or Inf component is dropped before it
 // reaches any sum and counted in nan_count(). It still counts as *taken* (sample_count(), the
@@ -22,6 +25,7 @@
 #include <string>
 #include <vector>
 
+#include "sampling/aov_set.h"
 #include "sampling/sample_source.h"
 #include "sampling/vecmath.h"
 
@@ -34,7 +38,7 @@ struct PixelStats {
     uint32_t taken = 0;                 ///< samples taken, dropped ones included
     uint32_t accepted = 0;              ///< samples with finite radiance (in `mean`)
     uint32_t half_accepted = 0;         ///< accepted samples with an odd index (in `half_mean`)
-    uint32_t hits = 0;                  ///< accepted samples with a finite depth (AOV means)
+    uint32_t hits = 0;                  ///< samples in the AOV means (0 for a film without AOVs)
 };
 
 /// Per-pixel sums of a progressive render. add_sample is safe to call concurrently for
@@ -42,18 +46,22 @@ struct PixelStats {
 /// owner); reads of a pixel must not overlap writes of the same pixel. nan_count() is atomic.
 class Film {
   public:
-    /// A film of width x height pixels, all sums zero.
-    Film(uint32_t width, uint32_t height);
+    /// A film of width x height pixels, all sums zero, keeping the AOVs in `aovs` (default:
+    /// none, beauty only).
+    Film(uint32_t width, uint32_t height, AovSet aovs = {});
 
     Film(const Film &) = delete;
     Film &operator=(const Film &) = delete;
 
     uint32_t width() const { return width_; }
     uint32_t height() const { return height_; }
+    /// The AOVs this film keeps (fixed at construction).
+    AovSet aovs() const { return aovs_; }
 
     /// Accumulates sample `sample_index` of pixel (px, py). Odd indices also go to the half
-    /// buffer. Non-finite radiance drops the sample (see the file comment). Thread-safe for
-    /// different pixels; (px, py) must be inside the film.
+    /// buffer. Non-finite radiance drops the sample (see the file comment). The sample's
+    /// albedo/normal/depth go only to the AOVs the film keeps; a film without AOVs ignores them
+    /// (and leaves `hits` at 0). Thread-safe for different pixels; (px, py) must be inside.
     void add_sample(uint32_t px, uint32_t py, uint32_t sample_index, const Sample &s);
 
     /// Number of samples dropped for NaN or Inf radiance since construction or clear().
@@ -77,7 +85,8 @@ class Film {
     void clear();
 
     // Resolves: row-major from the top-left pixel, interleaved channels. Not thread-safe
-    // against concurrent add_sample.
+    // against concurrent add_sample. The resolve of an AOV the film does not keep returns an
+    // empty vector (callers check aovs() first).
     /// Mean radiance, 3 floats per pixel (linear Rec.709 RGB).
     std::vector<float> beauty_rgb() const;
     /// Mean of the half buffer (odd-index samples), 3 floats per pixel.
@@ -92,30 +101,46 @@ class Film {
     /// Samples taken per pixel (dropped ones included), 1 float per pixel.
     std::vector<float> spp() const;
 
-    /// Film memory per pixel in bytes.
-    static constexpr size_t bytes_per_pixel() { return sizeof(PixelData); }
+    /// Film memory per pixel in bytes for a film keeping `aovs`: the beauty data plus the AOV
+    /// arrays (the memory limits use it before a film exists).
+    static constexpr size_t bytes_per_pixel_for(AovSet aovs) {
+        return sizeof(PixelData) + (aovs.has(Aov::Albedo) ? sizeof(Float3) : 0) +
+               (aovs.has(Aov::Normal) ? sizeof(Float3) : 0) +
+               (aovs.has(Aov::Depth) ? sizeof(float) : 0);
+    }
+    /// Film memory per pixel of this film in bytes (beauty plus its AOVs).
+    size_t bytes_per_pixel() const { return bytes_per_pixel_for(aovs_); }
 
     /// One readable line: size, memory, samples, dropped samples.
     std::string describe() const;
 
-    /// The raw accumulation state of one pixel, exactly as the film keeps it (checkpoints).
+    /// The raw beauty accumulation state of one pixel, exactly as the film keeps it
+    /// (checkpoints). 64 bytes.
     struct PixelData {
         double sum[3] = {0, 0, 0};       // radiance sum of accepted samples
         double half_sum[3] = {0, 0, 0};  // radiance sum of accepted odd-index samples
-        float albedo[3] = {0, 0, 0};     // running means over hits
-        float normal[3] = {0, 0, 0};
-        float depth = 0;
         uint32_t taken = 0;
         uint32_t accepted = 0;
         uint32_t half_accepted = 0;
-        uint32_t hits = 0;
+        uint32_t hits = 0;               // samples in the AOV running means
+    };
+    using Float3 = std::array<float, 3>;
+    /// The raw AOV running means, row-major, one entry per pixel for each AOV the film keeps
+    /// and empty for the others.
+    struct AovData {
+        std::vector<Float3> albedo;
+        std::vector<Float3> normal;
+        std::vector<float> depth;
     };
 
     /// Raw pixel state, row-major (checkpoint writing). Not thread-safe against add_sample.
     const std::vector<PixelData> &raw_pixels() const { return pixels_; }
+    /// Raw AOV means (checkpoint writing). Not thread-safe against add_sample.
+    const AovData &raw_aovs() const { return aov_; }
     /// Replaces the whole accumulation state (checkpoint resume): `pixels` must hold
-    /// width * height entries. Not thread-safe.
-    void restore(std::vector<PixelData> pixels, uint64_t nan_count);
+    /// width * height entries, and `aovs` that many for each AOV the film keeps and none for
+    /// the others. Throws std::invalid_argument otherwise. Not thread-safe.
+    void restore(std::vector<PixelData> pixels, AovData aovs, uint64_t nan_count);
 
   private:
 
@@ -125,7 +150,9 @@ class Film {
     PixelData &at(uint32_t px, uint32_t py) { return pixels_[size_t(py) * width_ + px]; }
 
     uint32_t width_ = 0, height_ = 0;
+    AovSet aovs_;
     std::vector<PixelData> pixels_;
+    AovData aov_;
     std::atomic<uint64_t> nan_count_{0};
 };
 

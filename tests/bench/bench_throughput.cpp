@@ -144,6 +144,8 @@ int main(int argc, char **argv) {
                     double(rays) / double(samples), double(samples) / best_render * 1e-6, mrays,
                     raw_mrays, mrays / raw_mrays);
     }
-    std::printf("film: %zu bytes per pixel\n", sampling::Film::bytes_per_pixel());
+    std::printf("film: %zu bytes per pixel (no AOVs; %zu with all)\n",
+                sampling::Film::bytes_per_pixel_for({}),
+                sampling::Film::bytes_per_pixel_for(sampling::AovSet::all()));
     return 0;
 }

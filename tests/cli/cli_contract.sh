@@ -308,6 +308,58 @@ PY
     expect_stderr_line 'unknown specialisation "bogus"'
     expect_no_output out
     ;;
+bad_aov)
+    # An unknown AOV name is an error before anything is rendered.
+    write_good_scene scene.pbrt
+    for a in bogus "albedo," "" "albedo,all" Depth; do
+        run render scene.pbrt -o out.exr --stats out.json --aov "$a" -q
+        expect_rc 2
+        expect_stderr_line '^tessera: --aov: unknown AOV'
+        expect_no_output out
+    done
+    ;;
+aov_layers)
+    # The EXR has the AOV layers asked for (--aov, else the Film type), the stats say which and
+    # the film's real bytes per pixel; a resume keeps the checkpoint's AOVs.
+    write_good_scene scene.pbrt
+    # EXR channel names are plain text in the file header.
+    has_layer() { head -c 2048 "$1" | grep -aq "$2"; }
+    check_stats() {  # FILE AOVS-JSON BYTES
+        python3 - "$1" "$2" "$3" <<'PY' || fail "stats JSON check failed: $*"
+import json, sys
+s = json.load(open(sys.argv[1]))
+assert s["aovs"] == json.loads(sys.argv[2]), s["aovs"]
+assert s["film_bytes_per_pixel"] == int(sys.argv[3]), s["film_bytes_per_pixel"]
+PY
+    }
+    run render scene.pbrt -o none.exr --stats none.json -q
+    expect_rc 0
+    check_stats none.json '[]' 64
+    for l in albedo.R normal.X depth.Z; do ! has_layer none.exr "$l" || fail "none.exr has $l"; done
+    has_layer none.exr spp.Y || fail "none.exr lacks spp.Y"
+    run render scene.pbrt -o some.exr --stats some.json --aov depth,normal -q
+    expect_rc 0
+    check_stats some.json '["normal", "depth"]' 80
+    has_layer some.exr normal.X && has_layer some.exr depth.Z || fail "some.exr lacks a layer"
+    ! has_layer some.exr albedo.R || fail "some.exr has albedo.R"
+    sed 's/^Film "rgb"/Film "gbuffer"/' scene.pbrt >gbuffer.pbrt
+    run render gbuffer.pbrt -o all.exr --stats all.json -q --checkpoint all.ckpt.exr
+    expect_rc 0
+    check_stats all.json '["albedo", "normal", "depth"]' 92
+    ! grep -q 'warning' stderr.txt || fail "Film \"gbuffer\" warned"
+    for l in albedo.R normal.X depth.Z; do has_layer all.exr "$l" || fail "all.exr lacks $l"; done
+    run render gbuffer.pbrt -o none2.exr --stats none2.json --aov none -q
+    expect_rc 0
+    check_stats none2.json '[]' 64
+    # Resuming takes the checkpoint's AOVs; asking for others is an error.
+    run render scene.pbrt -o resumed.exr --stats resumed.json --spp 8 --resume all.ckpt.exr -q
+    expect_rc 0
+    check_stats resumed.json '["albedo", "normal", "depth"]' 92
+    run render scene.pbrt -o out.exr --stats out.json --spp 8 --resume all.ckpt.exr --aov depth -q
+    expect_rc 2
+    expect_stderr_line '^--aov:0: the checkpoint all.ckpt.exr has the AOVs albedo,normal,depth'
+    expect_no_output out
+    ;;
 realtime_frames)
     # A real-time sampler renders whole frames with the Whitted integrator and reports them.
     write_good_scene scene.pbrt

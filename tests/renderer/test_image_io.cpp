@@ -79,7 +79,7 @@ TEST_CASE("EXR float round trip is bit exact, layers by name") {
 
 TEST_CASE("EXR half keeps half precision; depth and spp stay float") {
     fs::path dir = fresh_dir("half");
-    sampling::Film film(4, 3);
+    sampling::Film film(4, 3, sampling::AovSet::all());
     for (uint32_t y = 0; y < 3; ++y) {
         for (uint32_t x = 0; x < 4; ++x) {
             for (uint32_t i = 0; i < 3 + x; ++i) {
@@ -326,4 +326,40 @@ TEST_CASE("tessera diff prints metrics and fails on bad input") {
     CHECK(out2.str().find("sizes differ") != std::string::npos);
     CHECK(run_diff(pa, (dir / "missing.exr").string(), out, out3) == 2);
     CHECK(!out3.str().empty());
+}
+
+TEST_CASE("write_film_exr writes only the AOV layers the film keeps") {
+    using sampling::Aov;
+    using sampling::AovSet;
+    fs::path dir = fresh_dir("aov_layers");
+    for (AovSet aovs : {AovSet{}, AovSet{Aov::Depth}, AovSet{Aov::Albedo, Aov::Normal},
+                        AovSet::all()}) {
+        CAPTURE(aovs.describe());
+        sampling::Film film(3, 2, aovs);
+        for (uint32_t x = 0; x < 3; ++x) {
+            Sample s;
+            s.radiance = Rgb(0.25f * float(x + 1));
+            s.albedo = Rgb(0.5f, 0.25f, 0.125f);
+            s.normal = Vec3f(0, 1, 0);
+            s.depth = 2.f + float(x);
+            film.add_sample(x, 0, 0, s);
+        }
+        std::string path = (dir / ("film-" + aovs.describe() + ".exr")).string();
+        write_film_exr(path, film);
+        std::vector<std::string> names = image_channel_names(path);
+        std::sort(names.begin(), names.end());
+        std::vector<std::string> expected = {"B", "G", "R", "spp.Y"};
+        if (aovs.has(Aov::Albedo)) expected.insert(expected.end(), {"albedo.B", "albedo.G", "albedo.R"});
+        if (aovs.has(Aov::Normal)) expected.insert(expected.end(), {"normal.X", "normal.Y", "normal.Z"});
+        if (aovs.has(Aov::Depth)) expected.push_back("depth.Z");
+        std::sort(expected.begin(), expected.end());
+        CHECK(names == expected);
+        uint32_t w = 0, h = 0;
+        CHECK(read_image_channels(path, {"R", "G", "B"}, w, h) == film.beauty_rgb());
+        if (aovs.has(Aov::Depth))
+            CHECK(read_image_channels(path, {"depth.Z"}, w, h) == film.depth());
+        if (aovs.has(Aov::Albedo))
+            CHECK(read_image_channels(path, {"albedo.R", "albedo.G", "albedo.B"}, w, h) ==
+                  film.albedo_rgb());
+    }
 }

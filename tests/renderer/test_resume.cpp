@@ -1,6 +1,7 @@
 // Checkpoint and resume: N passes, checkpoint, resume to M passes == M passes straight.
 #include <doctest/doctest.h>
 
+#include <algorithm>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -113,5 +114,70 @@ TEST_CASE("resume refuses a checkpoint of another render") {
     s.resume = o.checkpoint;
     s.output = (dir / "c.exr").string();
     CHECK_THROWS_WITH_AS(run_render(s), doctest::Contains("checkpoint is 40x24"), SceneError);
+    fs::remove_all(dir);
+}
+
+TEST_CASE("resume keeps the checkpoint's AOVs; another --aov is refused") {
+    fs::path dir = fs::path(test::output_dir()) / "resume_aovs";
+    fs::create_directories(dir);
+    std::ofstream(dir / "scene.pbrt") << kScene;
+    RenderOptions base;
+    base.scene = (dir / "scene.pbrt").string();
+    base.sampler = parse_sampler_spec("uniform");
+    base.deterministic = true;
+    base.quiet = true;
+    base.write_png = false;
+    base.threads = 2;
+    base.overrides.spp = 64;
+    base.overrides.aovs = sampling::AovSet{sampling::Aov::Albedo, sampling::Aov::Depth};
+
+    RenderOptions straight = base;
+    straight.max_passes = 3;
+    straight.output = (dir / "straight.exr").string();
+    RenderReport rs = run_render(straight);
+    CHECK(rs.aovs == std::vector<std::string>{"albedo", "depth"});
+    CHECK(rs.film_bytes_per_pixel == sampling::Film::bytes_per_pixel_for(*base.overrides.aovs));
+
+    RenderOptions first = base;
+    first.max_passes = 1;
+    first.output = (dir / "first.exr").string();
+    first.checkpoint = (dir / "ckpt.exr").string();
+    run_render(first);
+
+    // Without --aov the resume takes the checkpoint's set (the scene's Film "rgb" has none).
+    RenderOptions second = base;
+    second.overrides.aovs.reset();
+    second.max_passes = 3;
+    second.resume = first.checkpoint;
+    second.output = (dir / "resumed.exr").string();
+    RenderReport r2 = run_render(second);
+    CHECK(r2.aovs == rs.aovs);
+    uint32_t w, h;
+    for (const char *c : {"R", "albedo.G", "depth.Z", "spp.Y"}) {
+        CAPTURE(c);
+        std::vector<float> a = read_image_channels(straight.output, {c}, w, h);
+        std::vector<float> b = read_image_channels(second.output, {c}, w, h);
+        REQUIRE(a.size() == b.size());
+        CHECK(std::memcmp(a.data(), b.data(), a.size() * sizeof(float)) == 0);
+    }
+    std::vector<std::string> names = image_channel_names(second.output);
+    CHECK(std::find(names.begin(), names.end(), "normal.X") == names.end());
+
+    // The same set asked for explicitly is fine; another one is a clear error.
+    RenderOptions same = second;
+    same.overrides.aovs = base.overrides.aovs;
+    same.output = (dir / "same.exr").string();
+    CHECK_NOTHROW(run_render(same));
+    for (sampling::AovSet other : {sampling::AovSet{}, sampling::AovSet::all()}) {
+        RenderOptions bad = second;
+        bad.overrides.aovs = other;
+        bad.output = (dir / "bad.exr").string();
+        CHECK_THROWS_WITH_AS(run_render(bad),
+                             doctest::Contains(("checkpoint " + first.checkpoint +
+                                                " has the AOVs albedo,depth")
+                                                   .c_str()),
+                             SceneError);
+        CHECK_FALSE(fs::exists(dir / "bad.exr"));
+    }
     fs::remove_all(dir);
 }

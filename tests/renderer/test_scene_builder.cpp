@@ -297,3 +297,29 @@ Shape "trianglemesh" "point3 P" [ -1 -1 1  1 -1 1  0 1 1 ]
     CHECK(sc->lights.empty());
     CHECK(sc->light_sampler == nullptr);
 }
+
+TEST_CASE("build_scene: Film \"gbuffer\" keeps the geometric AOVs, \"rgb\" none, --aov wins") {
+    auto film = [](const std::string &type) {
+        return "Film \"" + type + "\" \"integer xresolution\" [ 8 ] \"integer yresolution\" [ 8 ]" +
+               std::string(kOneTriangle);
+    };
+    // pbrt-v4 semantics: "rgb" writes RGB only, "gbuffer" albedo, normal and depth.
+    int before = warning_count();
+    CHECK(build_named(film("rgb"), "film_rgb.pbrt")->settings.aovs.empty());
+    CHECK(build_named(film("gbuffer"), "film_gbuffer.pbrt")->settings.aovs ==
+          sampling::AovSet::all());
+    CHECK(warning_count() == before);  // neither warns
+    // No Film directive: pbrt-v4's default "rgb".
+    CHECK(build_named(kOneTriangle, "film_default.pbrt")->settings.aovs.empty());
+    // Other film types still render as "rgb", with a warning.
+    CHECK(build_named(film("spectral"), "film_spectral.pbrt")->settings.aovs.empty());
+    CHECK(warning_count() == before + 1);
+    CHECK(last_warning().find("film_spectral.pbrt:1: warning: Film \"spectral\" is rendered as "
+                              "an \"rgb\" film") == 0);
+    // --aov overrides the Film type either way.
+    SceneOverrides ov;
+    ov.aovs = sampling::AovSet{sampling::Aov::Depth};
+    CHECK(build_named(film("gbuffer"), "film_gbuffer_ov.pbrt", ov)->settings.aovs == *ov.aovs);
+    ov.aovs = sampling::AovSet::all();
+    CHECK(build_named(film("rgb"), "film_rgb_ov.pbrt", ov)->settings.aovs == *ov.aovs);
+}

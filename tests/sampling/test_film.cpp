@@ -1,8 +1,11 @@
-// Unit tests of the film: means, half buffer, AOVs, dropped samples, precision, threads.
+// Unit tests of the film: means, half buffer, AOVs (only the requested ones), dropped samples,
+// precision, threads.
 #include <doctest/doctest.h>
 
 #include <cmath>
 #include <limits>
+#include <stdexcept>
+#include <string>
 #include <thread>
 #include <vector>
 
@@ -61,7 +64,7 @@ TEST_CASE("mean and half buffer of a pixel") {
 }
 
 TEST_CASE("AOVs average over hits only") {
-    Film film(1, 1);
+    Film film(1, 1, AovSet::all());
     film.add_sample(0, 0, 0, hit_sample(Rgb(1.f), Rgb(0.2f, 0.4f, 0.6f), {0, 0, 1}, 2.f));
     film.add_sample(0, 0, 1, radiance_sample(5.f, 5.f, 5.f));  // escaped
     film.add_sample(0, 0, 2, hit_sample(Rgb(1.f), Rgb(0.4f, 0.8f, 0.2f), {0, 1, 0}, 4.f));
@@ -77,7 +80,7 @@ TEST_CASE("AOVs average over hits only") {
     // The escaped sample still counts for the beauty: (1 + 5 + 1) / 3.
     CHECK(film.beauty_rgb()[0] == doctest::Approx(7.f / 3.f));
 
-    Film empty(1, 1);
+    Film empty(1, 1, AovSet::all());
     empty.add_sample(0, 0, 0, radiance_sample(1, 1, 1));
     CHECK(std::isinf(empty.depth()[0]));
     CHECK(empty.albedo_rgb()[0] == 0.f);
@@ -111,7 +114,7 @@ TEST_CASE("non-finite radiance is dropped, counted and still taken") {
 }
 
 TEST_CASE("10^6 samples of 0.1 keep the mean exact to 1e-6") {
-    Film film(1, 1);
+    Film film(1, 1, AovSet::all());
     Sample s = hit_sample(Rgb(0.1f, 0.1f, 0.1f), Rgb(0.1f), {0, 0, 1}, 0.1f);
     const uint32_t n = 1000000;
     for (uint32_t i = 0; i < n; ++i)
@@ -178,8 +181,115 @@ TEST_CASE("concurrent writers to different pixels") {
 }
 
 TEST_CASE("memory per pixel") {
-    // Two double RGB sums, three float AOVs, four counters.
-    CHECK(Film::bytes_per_pixel() >= 2 * 24 + 7 * 4 + 4 * 4);
-    CHECK(Film::bytes_per_pixel() <= 96);
+    // Two double RGB sums and four counters; with all AOVs also seven floats.
+    CHECK(Film::bytes_per_pixel_for({}) == 2 * 24 + 4 * 4);
+    CHECK(Film::bytes_per_pixel_for(AovSet::all()) == 2 * 24 + 4 * 4 + 7 * 4);
+    CHECK(Film::bytes_per_pixel_for(AovSet::all()) <= 96);
+    CHECK(Film(4, 4).bytes_per_pixel() == Film::bytes_per_pixel_for({}));
+    CHECK(Film(4, 4, AovSet::all()).bytes_per_pixel() == Film::bytes_per_pixel_for(AovSet::all()));
     CHECK(Film(4, 4).describe().find("4x4") != std::string::npos);
+}
+
+namespace {
+
+/// A deterministic mix of hits, misses and a NaN for every pixel of a w x h film.
+void fill(Film &film, uint32_t spp) {
+    for (uint32_t y = 0; y < film.height(); ++y)
+        for (uint32_t x = 0; x < film.width(); ++x)
+            for (uint32_t i = 0; i < spp; ++i) {
+                float v = 0.1f * float(x + 2 * y) + 0.37f * float(i % 5);
+                if (i % 11 == 10)
+                    film.add_sample(x, y, i, radiance_sample(NAN, 0, 0));
+                else if (i % 3 == 0)
+                    film.add_sample(x, y, i, radiance_sample(v, 2 * v, 0.5f));
+                else
+                    film.add_sample(x, y, i,
+                                    hit_sample(Rgb(v, v, 1.f), Rgb(0.1f * float(i % 4), 0.5f, v),
+                                               {0, float(i % 2), 1}, 1.f + v));
+            }
+}
+
+}  // namespace
+
+TEST_CASE("a film without AOVs is smaller and has the same beauty as one with all") {
+    Film none(5, 3), all(5, 3, AovSet::all());
+    CHECK(none.aovs().empty());
+    CHECK(none.bytes_per_pixel() < all.bytes_per_pixel());
+    CHECK(none.bytes_per_pixel() == 64);
+    CHECK(all.bytes_per_pixel() == 92);
+    fill(none, 37);
+    fill(all, 37);
+    // Bit-identical beauty, half buffer, counts and dropped samples.
+    CHECK(none.beauty_rgb() == all.beauty_rgb());
+    CHECK(none.half_rgb() == all.half_rgb());
+    CHECK(none.spp() == all.spp());
+    CHECK(none.nan_count() == all.nan_count());
+    CHECK(none.total_samples() == all.total_samples());
+    for (uint32_t y = 0; y < 3; ++y)
+        for (uint32_t x = 0; x < 5; ++x) {
+            PixelStats a = none.pixel_stats(x, y), b = all.pixel_stats(x, y);
+            CHECK(a.mean == b.mean);
+            CHECK(a.half_mean == b.half_mean);
+            CHECK(a.taken == b.taken);
+            CHECK(a.accepted == b.accepted);
+            CHECK(a.half_accepted == b.half_accepted);
+            CHECK(a.hits == 0);  // no AOV means kept: hits are not counted
+            CHECK(b.hits > 0);
+        }
+    // The resolves of AOVs that were not asked for are empty (documented in film.h).
+    CHECK(none.albedo_rgb().empty());
+    CHECK(none.normal_xyz().empty());
+    CHECK(none.depth().empty());
+    CHECK(none.raw_aovs().albedo.empty());
+    CHECK(none.raw_aovs().normal.empty());
+    CHECK(none.raw_aovs().depth.empty());
+}
+
+TEST_CASE("a film with only depth allocates only depth, with the means of an all-AOV film") {
+    Film depth(4, 2, AovSet{Aov::Depth}), all(4, 2, AovSet::all());
+    CHECK(depth.bytes_per_pixel() == 64 + 4);
+    CHECK(depth.raw_aovs().albedo.empty());
+    CHECK(depth.raw_aovs().normal.empty());
+    CHECK(depth.raw_aovs().depth.size() == 8);
+    fill(depth, 23);
+    fill(all, 23);
+    CHECK(depth.albedo_rgb().empty());
+    CHECK(depth.normal_xyz().empty());
+    REQUIRE(depth.depth().size() == 8);
+    CHECK(depth.depth() == all.depth());
+    CHECK(depth.beauty_rgb() == all.beauty_rgb());
+    depth.clear();
+    CHECK(depth.raw_aovs().depth.size() == 8);
+    CHECK(depth.raw_aovs().depth[3] == 0.f);
+}
+
+TEST_CASE("restore checks the AOV arrays against the film's set") {
+    Film film(2, 2, AovSet{Aov::Albedo});
+    std::vector<Film::PixelData> px(4);
+    Film::AovData ok;
+    ok.albedo.assign(4, Film::Float3{0.5f, 0.25f, 0.125f});
+    px[1].taken = px[1].accepted = px[1].hits = 1;
+    film.restore(px, ok, 3);
+    CHECK(film.albedo_rgb()[3 + 1] == 0.25f);
+    CHECK(film.nan_count() == 3);
+    Film::AovData extra = ok;
+    extra.depth.assign(4, 1.f);  // the film keeps no depth
+    CHECK_THROWS_AS(film.restore(px, extra, 0), std::invalid_argument);
+    CHECK_THROWS_AS(film.restore(px, Film::AovData{}, 0), std::invalid_argument);
+}
+
+TEST_CASE("AovSet: parse, names, describe") {
+    CHECK(AovSet::parse("none").empty());
+    CHECK(AovSet::parse("all") == AovSet::all());
+    CHECK(AovSet::parse("depth,albedo") == AovSet{Aov::Albedo, Aov::Depth});
+    CHECK(AovSet::parse("normal,normal") == AovSet{Aov::Normal});
+    CHECK(AovSet::parse("depth,albedo").names() == std::vector<std::string>{"albedo", "depth"});
+    CHECK(AovSet::all().describe() == "albedo,normal,depth");
+    CHECK(AovSet{}.describe() == "none");
+    CHECK(AovSet::parse(AovSet{Aov::Normal, Aov::Depth}.describe()) ==
+          AovSet{Aov::Normal, Aov::Depth});
+    for (const char *bad : {"bogus", "", "albedo,", "albedo,all", "Depth", "albedo;normal"}) {
+        CAPTURE(bad);
+        CHECK_THROWS_AS(AovSet::parse(bad), std::invalid_argument);
+    }
 }
