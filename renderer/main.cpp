@@ -152,6 +152,9 @@ int main(int argc, char **argv) {
     render->add_option("--view", ro.display.view, "OCIO view (default: the display's)");
     render->add_option("--exposure", ro.display.exposure_stops, "PNG exposure in stops");
     render->add_flag("-q,--quiet", ro.quiet, "No progress bar or summary");
+    render->add_flag("--no-specialize", [&](int64_t) { ro.specialize = false; },
+                     "Force the general code paths (e.g. the Whitted integrator collects every "
+                     "attribute, not only what the sampler reads and the scene can have)");
 
     CLI::App *samplers =
         app.add_subcommand("samplers", "List the sampler plugins with their keys and defaults");

@@ -73,6 +73,10 @@ struct RenderOptions {
     std::string integrator;
     uint32_t frames = 1;            ///< --frames: frames to render with a frame plugin
     double orbit_deg = 0;           ///< --orbit: camera orbit over all frames, degrees
+    /// false (--no-specialize): force the general code paths. Today: the Whitted integrator
+    /// collects every attribute group instead of only what the frame plugin reads and the scene
+    /// can have (WhittedOptions::specialize).
+    bool specialize = true;
 };
 
 /// What a render produced (for the stats JSON and tests).
