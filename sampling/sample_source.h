@@ -81,8 +81,11 @@ inline std::string describe_attributes(uint32_t bits) {
     for (auto [bit, name] : {std::pair<uint32_t, const char *>{kAttrPrimary, "primary"},
                              {kAttrTexture, "texture"},
                              {kAttrSecondary, "secondary"}})
-        if (bits & bit)
-            s += (s.empty() ? "" : "+") + std::string(name);
+        if (bits & bit) {
+            if (!s.empty())
+                s += '+';
+            s += name;
+        }
     return s;
 }
 

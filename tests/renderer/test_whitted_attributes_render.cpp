@@ -150,6 +150,9 @@ Shape "trianglemesh" "integer indices" [ 0 1 2  0 2 3 ]
 )";
     auto scene = scene_from_string(text);
     WhittedIntegrator w(*scene);
+    // The spot, then one light per triangle of the quad.
+    const uint32_t lights = uint32_t(scene->lights.size());
+    REQUIRE(lights == 3u);
     uint32_t behind = 0, outside = 0, both_traced = 0;
     for (uint32_t py = 0; py < 16; ++py)
         for (uint32_t px = 0; px < 16; ++px) {
@@ -160,8 +163,8 @@ Shape "trianglemesh" "integer indices" [ 0 1 2  0 2 3 ]
                 continue;  // the light itself
             INFO("pixel " << px << "," << py << " at " << a.position.x << "," << a.position.y
                           << "," << a.position.z << " rays " << s.rays);
-            // Two lights: traced + avoided covers both; every ray is the primary or a shadow ray.
-            CHECK(s.shadow_rays + s.shadow_rays_avoided == 2u);
+            // Traced + avoided covers every light; every ray is the primary or a shadow ray.
+            CHECK(s.shadow_rays + s.shadow_rays_avoided == lights);
             CHECK(s.rays == 1u + s.shadow_rays);
             const Vec3f p = a.position;
             const float dx = p.x - 2.f;
@@ -176,8 +179,8 @@ Shape "trianglemesh" "integer indices" [ 0 1 2  0 2 3 ]
                 CHECK(a.shadow_bits == 0u);
             } else if (!in_cone) {
                 ++outside;
-                CHECK(s.shadow_rays == 1u);  // the area light only
-                CHECK(s.rays == 2u);
+                CHECK(s.shadow_rays == lights - 1);  // the area light's triangles only
+                CHECK(s.rays == lights);
             } else {
                 ++both_traced;
             }
