@@ -77,8 +77,9 @@ CameraSample pixel_centre(uint32_t px, uint32_t py) {
 
 }  // namespace
 
-TEST_CASE("whitted attributes: every plugin's frames are identical with reduced and full "
-          "collection") {
+TEST_CASE(
+    "whitted attributes: every plugin's frames are identical with reduced and full "
+    "collection") {
     SceneOverrides ov;
     ov.width = 40;
     ov.height = 40;
@@ -161,8 +162,8 @@ Shape "trianglemesh" "integer indices" [ 0 1 2  0 2 3 ]
             const SurfaceAttributes &a = s.first_hit->primary;
             if (!a.hit() || a.object_id == 0)
                 continue;  // the light itself
-            INFO("pixel " << px << "," << py << " at " << a.position.x << "," << a.position.y
-                          << "," << a.position.z << " rays " << s.rays);
+            INFO("pixel " << px << "," << py << " at " << a.position.x << "," << a.position.y << ","
+                          << a.position.z << " rays " << s.rays);
             // Traced + avoided covers every light; every ray is the primary or a shadow ray.
             CHECK(s.shadow_rays + s.shadow_rays_avoided == lights);
             CHECK(s.rays == 1u + s.shadow_rays);
