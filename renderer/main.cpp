@@ -162,7 +162,7 @@ int main(int argc, char **argv) {
     std::string no_specialize;
     render->add_flag("--no-specialize{all}", no_specialize,
                      "Force the general code paths (benchmarks): all, or --no-specialize=NAME,... "
-                     "of differentials, lambertian, cull, alpha (renderer/specialize.h)");
+                     "of differentials, lambertian, cull, alpha, attributes (renderer/specialize.h)");
 
     CLI::App *samplers =
         app.add_subcommand("samplers", "List the sampler plugins with their keys and defaults");

@@ -8,6 +8,8 @@
 #include <nlohmann/json.hpp>
 
 #include "renderer/image_io.h"
+#include "renderer/specialize.h"
+#include "renderer/whitted_integrator.h"
 #include "scheduler/frame_scheduler.h"
 
 namespace tessera {
@@ -40,12 +42,27 @@ void run_frames(const RenderOptions &opt, Scene &scene, const SamplerSpec &sampl
                 const std::string &exr, const std::string &png, const DisplayTransform *display,
                 const std::atomic<bool> *cancel, RenderReport &rep) {
     const std::string integrator_name = opt.integrator.empty() ? "whitted" : opt.integrator;
-    std::unique_ptr<SampleSource> source = make_integrator(scene, integrator_name);
     std::unique_ptr<sampling::PixelSampler> plugin;
     try {
         plugin = sampler.plugin.info->make(sampler.plugin.params);
     } catch (const std::invalid_argument &e) {
         throw SceneError(std::string("--sampler:0: ") + e.what());
+    }
+    // The Whitted integrator collects only the attributes the plugin reads and the scene can
+    // have (issue 7), unless --no-specialize asks for the general path.
+    std::unique_ptr<SampleSource> source;
+    std::string attributes_collected = "n/a";
+    if (integrator_name == "whitted") {
+        WhittedOptions wo;
+        wo.max_depth = scene.settings.max_depth;
+        wo.seed = scene.settings.seed;
+        wo.attributes = plugin->attributes_used();
+        wo.specialize = !(opt.no_specialize & kSpecAttributes);
+        auto whitted = std::make_unique<WhittedIntegrator>(scene, wo);
+        attributes_collected = describe_attributes(whitted->collected_attributes());
+        source = std::move(whitted);
+    } else {
+        source = make_integrator(scene, integrator_name);
     }
     sched::FrameOptions fo;
     fo.threads = opt.threads;
@@ -57,6 +74,7 @@ void run_frames(const RenderOptions &opt, Scene &scene, const SamplerSpec &sampl
     sampling::FrameResult result;
     sched::FrameTiming timing;
     uint32_t done = 0;
+    uint64_t shadow_rays = 0, shadow_rays_avoided = 0;  // over all frames
     for (uint32_t k = 0; k < frames; ++k) {
         if (cancel && cancel->load()) break;
         if (opt.orbit_deg != 0)
@@ -65,6 +83,8 @@ void run_frames(const RenderOptions &opt, Scene &scene, const SamplerSpec &sampl
         timing = scheduler.render(*plugin, *source, result, cancel);
         if (timing.cancelled) break;
         rep.frame_ms.push_back(timing.total_ms);
+        shadow_rays += result.shadow_rays;
+        shadow_rays_avoided += result.shadow_rays_avoided;
         ++done;
         if (!opt.quiet)
             std::fprintf(stderr, "\rtessera: frame %u/%u  %.1f ms  %.2f rays/px", k + 1, frames,
@@ -139,6 +159,11 @@ void run_frames(const RenderOptions &opt, Scene &scene, const SamplerSpec &sampl
         j["active_unit"] = result.active_unit;
         j["samples"] = result.samples;
         j["rays"] = result.rays_total;
+        // Totals over all frames (`rays` above is the last frame's).
+        j["shadow_rays"] = shadow_rays;
+        j["shadow_rays_avoided"] = shadow_rays_avoided;
+        j["attributes_collected"] = attributes_collected;
+        j["specialize"] = !(opt.no_specialize & kSpecAttributes);
         j["nan_count"] = result.nan_samples;
         nlohmann::json stages = nlohmann::json::array();
         for (size_t i = 0; i < timing.stage_ms.size(); ++i)

@@ -173,6 +173,9 @@ std::unique_ptr<SampleSource> make_integrator(const Scene &scene, const std::str
         WhittedOptions wo;
         wo.max_depth = scene.settings.max_depth;
         wo.seed = scene.settings.seed;
+        // The progressive samplers read only radiance (the real-time loop in realtime.cpp asks
+        // for what its frame plugin reads).
+        wo.attributes = kAttrNone;
         return make_whitted_integrator(scene, wo);
     }
     throw SceneError("--integrator:0: unknown integrator \"" + name + "\" (path, whitted)");

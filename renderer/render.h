@@ -109,7 +109,8 @@ sched::AdaptiveOptions scheduler_options(const Scene &scene, const SamplerSpec &
 sched::AdaptiveStats render_scene(const Scene &scene, sampling::Film &film, uint32_t threads,
                                   double time_s, bool quiet, const std::atomic<bool> *cancel);
 
-/// The integrator called `name` ("path" or "whitted") for `scene`. Throws SceneError for an
+/// The integrator called `name` ("path" or "whitted") for `scene`, for the progressive
+/// samplers (whitted without attribute vectors: they read none). Throws SceneError for an
 /// unknown name.
 std::unique_ptr<SampleSource> make_integrator(const Scene &scene, const std::string &name,
                                               uint32_t no_specialize = 0);

@@ -17,6 +17,7 @@ constexpr Named kNames[] = {
     {"lambertian", kSpecLambertian},
     {"cull", kSpecCull},
     {"alpha", kSpecAlpha},
+    {"attributes", kSpecAttributes},
 };
 
 }  // namespace
@@ -68,6 +69,8 @@ uint32_t applicable_specializations(const Scene &scene) {
     if (lambertian) mask |= kSpecLambertian;
     if (!scene.lights.empty()) mask |= kSpecCull;
     if (scene.geometry && scene.geometry->opaque_mesh_count() > 0) mask |= kSpecAlpha;
+    // kSpecAttributes is the real-time loop's (what is collected depends on the frame plugin;
+    // its stats report attributes_collected): not listed here.
     return mask;
 }
 

@@ -17,6 +17,10 @@
 //   alpha          Embree intersection-filter callbacks only on alpha-tested meshes; the
 //                  general path attaches them to every mesh (they accept every hit of an
 //                  opaque one). Chosen where the scene is built (SceneOverrides::no_specialize).
+//   attributes     Real-time frame plugins: the Whitted integrator collects only the attribute
+//                  groups (sampling/sample_source.h) the plugin reads and the scene can have --
+//                  no secondary-hit attributes without a specular material, no uv without a
+//                  texture; the general path collects all (WhittedOptions::specialize).
 // Always on (not switchable): Embree geometry types only for what exists (user geometry only
 // for spheres and disks), no environment
 // distribution without an image-based light, converged tiles left after the region-tree check,
@@ -37,7 +41,8 @@ enum Specialization : uint32_t {
     kSpecLambertian = 1u << 1,     ///< "lambertian"
     kSpecCull = 1u << 2,           ///< "cull"
     kSpecAlpha = 1u << 3,          ///< "alpha"
-    kSpecAll = (1u << 4) - 1,
+    kSpecAttributes = 1u << 4,     ///< "attributes"
+    kSpecAll = (1u << 5) - 1,
 };
 
 /// Parses a comma-separated list of specialisation names ("all" = every one) into bits.
@@ -47,7 +52,8 @@ uint32_t parse_specializations(std::string_view list);
 /// The names of the bits in `mask`, comma-separated ("none" when empty).
 std::string specialization_names(uint32_t mask);
 
-/// The specialisations whose property `scene` has (cull applies to every scene with lights).
+/// The progressive path tracer's specialisations whose property `scene` has (cull applies to
+/// every scene with lights). kSpecAttributes, the real-time loop's, is never included.
 uint32_t applicable_specializations(const Scene &scene);
 
 }  // namespace tessera

@@ -78,9 +78,11 @@ int specular_lobes(const Bsdf &bsdf, Vec3f wo_world, SpecularLobe lobes[2]) {
 
 }  // namespace
 
-/// Per-sample scratch (lives on the stack of evaluate).
+/// Per-sample scratch (lives on the stack of evaluate): the ray counters of Sample.
 struct WhittedIntegrator::Trace {
-    uint32_t rays = 0;
+    uint32_t rays = 0;         ///< every ray traced (shadow rays included)
+    uint32_t shadow_rays = 0;  ///< shadow rays traced
+    uint32_t avoided = 0;      ///< shadow rays skipped: the light could not contribute
 };
 
 /// What the caller of shade_ray wants besides the radiance (the primary hit's extras).
@@ -183,6 +185,21 @@ WhittedIntegrator::WhittedIntegrator(const Scene &scene, const WhittedOptions &o
     textured_.resize(scene_.materials.size());
     for (size_t i = 0; i < scene_.materials.size(); ++i)
         textured_[i] = scene_.features.textures && scene_.materials[i]->textured();
+
+    // What the scene can have: without a material with a specular lobe no reflection or
+    // refraction ray is ever traced (specular_lobes() only knows materials whose possible flags
+    // say specular), so the secondary record would stay empty; without textures has_texture is
+    // always false and no material reads uv (textured() is false), so uv has no effect.
+    uint32_t scene_can_have = kAttrAll;
+    if (!scene_.features.specular || options_.max_depth == 0)
+        scene_can_have &= ~uint32_t(kAttrSecondary);
+    if (!scene_.features.textures)
+        scene_can_have &= ~uint32_t(kAttrTexture);
+    uint32_t wanted = options_.attributes & kAttrAll;
+    // Texture and secondary groups live inside the first_hit record.
+    if (wanted & (kAttrTexture | kAttrSecondary))
+        wanted |= kAttrPrimary;
+    collected_ = options_.specialize ? wanted & scene_can_have : uint32_t(kAttrAll);
 }
 
 std::string WhittedIntegrator::describe() const {
@@ -196,9 +213,9 @@ std::string WhittedIntegrator::describe() const {
     char buf[256];
     std::snprintf(buf, sizeof(buf),
                   "Whitted ray tracer, max depth %d, %zu delta + %zu point-like area lights, "
-                  "attributes %s, deterministic (seed %u unused)",
-                  options_.max_depth, delta, area, options_.attributes ? "on" : "off",
-                  options_.seed);
+                  "attributes %s%s, deterministic (seed %u unused)",
+                  options_.max_depth, delta, area, describe_attributes(collected_).c_str(),
+                  options_.specialize ? "" : " (general path)", options_.seed);
     return buf;
 }
 
@@ -270,13 +287,25 @@ std::optional<Bsdf> WhittedIntegrator::material_bsdf(const ShadePoint &sp,
 
 Rgb WhittedIntegrator::local_shading(const ShadePoint &sp, const Bsdf *bsdf,
                                      const SurfaceInteraction *si, uint32_t *bits,
-                                     uint32_t *rays) const {
+                                     Trace *tr) const {
     Rgb L(0.f);
     if (const Emission *e = emission_of(sp.object_id))
         if (e->twosided || dot(sp.n, sp.wo) > 0.f)
             L += e->L;
     if (!bsdf || !bsdf->has_non_specular())
         return L;
+    // A BSDF without transmission is zero unless wi is on wo's side of the shading normal (the
+    // BxDFs' same_hemisphere test, on the same local z = dot(w, sp.n)), so such lights are
+    // skipped before their radiance and the BSDF are evaluated. Usually wo is above sp.n; on the
+    // back of a one-sided emitter it is below.
+    const bool reflect_only = !(bsdf->flags() & kBxdfTransmission);
+    const float cos_o = dot(sp.wo, sp.n);
+    // Every early `continue` below is a light that cannot contribute here: no shadow ray. The
+    // same tests run in shade() (tr null), so shadow bits and shade() stay consistent.
+    auto skip = [tr] {
+        if (tr)
+            ++tr->avoided;
+    };
     for (size_t i = 0; i < lights_.size(); ++i) {
         const LightProxy &lp = lights_[i];
         Vec3f wi, target;
@@ -286,10 +315,17 @@ Rgb WhittedIntegrator::local_shading(const ShadePoint &sp, const Bsdf *bsdf,
             case LightProxy::Kind::None:
                 continue;
             case LightProxy::Kind::Delta: {
+                // sample_li is nullopt for zero radiance, i.e. also outside a spot cone.
                 std::optional<LightLiSample> ls = lp.light->sample_li({sp.p, sp.n}, {0.5f, 0.5f});
-                if (!ls)
+                if (!ls) {
+                    skip();
                     continue;
+                }
                 wi = ls->wi;
+                if (reflect_only && !(cos_o * dot(wi, sp.n) > 0.f)) {
+                    skip();
+                    continue;
+                }
                 Li = ls->L;
                 target = ls->p_light;
                 directional = lp.light->type() == LightType::DeltaDirection;
@@ -300,12 +336,17 @@ Rgb WhittedIntegrator::local_shading(const ShadePoint &sp, const Bsdf *bsdf,
                 // back of a one-sided emitter).
                 Vec3f d = lp.p - sp.p;
                 float d2 = length_squared(d);
-                if (!(d2 > 0.f))
+                if (!(d2 > 0.f)) {
+                    skip();
                     continue;
+                }
                 wi = d / std::sqrt(d2);
                 float cos_l = dot(lp.n, wi);  // < 0: the point is on the emitting side
-                if (!(cos_l < 0.f) && !lp.twosided)
+                if ((!(cos_l < 0.f) && !lp.twosided) ||
+                    (reflect_only && !(cos_o * dot(wi, sp.n) > 0.f))) {
+                    skip();
                     continue;
+                }
                 Li = lp.L * (lp.area * std::abs(cos_l) / d2);
                 target = lp.p;
                 break;
@@ -315,21 +356,35 @@ Rgb WhittedIntegrator::local_shading(const ShadePoint &sp, const Bsdf *bsdf,
                 // the whole sphere is above the horizon). The shadow ray ends on its near side.
                 Vec3f d = lp.p - sp.p;
                 float d2 = length_squared(d);
-                if (!(d2 > lp.radius * lp.radius))
+                if (!(d2 > lp.radius * lp.radius)) {
+                    skip();
                     continue;
+                }
                 wi = d / std::sqrt(d2);
+                if (reflect_only && !(cos_o * dot(wi, sp.n) > 0.f)) {
+                    skip();
+                    continue;
+                }
                 target = lp.p - wi * lp.radius;
                 Li = lp.light->L(target, -wi, {}, -wi) * (lp.area / d2);
                 break;
             }
         }
-        Rgb c = bsdf->f(sp.wo, wi) * Li * absdot(wi, sp.n);
-        if (c.is_black() || !c.is_finite())
+        // Zero radiance (e.g. a black emitter) or a zero BSDF value: nothing to trace for.
+        if (Li.is_black()) {
+            skip();
             continue;
+        }
+        Rgb c = bsdf->f(sp.wo, wi) * Li * absdot(wi, sp.n);
+        if (c.is_black() || !c.is_finite()) {
+            skip();
+            continue;
+        }
         const uint32_t bit = shadow_bit(i);
         if (si) {
             Ray shadow = directional ? si->spawn_ray(wi) : si->spawn_ray_to(target);
-            ++*rays;
+            ++tr->rays;
+            ++tr->shadow_rays;
             if (scene_.geometry->occluded(shadow)) {
                 *bits |= bit;
                 continue;
@@ -398,15 +453,17 @@ Rgb WhittedIntegrator::shade_ray(const Ray &ray_in, std::optional<SurfaceInterac
     sp.n = normalize(n_stored);  // shade() normalises the (interpolated) normal the same way
     Bsdf shading(Frame::from_z(sp.n), bsdf->bxdf());
     uint32_t bits = 0;
-    out.local = local_shading(sp, &shading, &si, &bits, &tr.rays);
+    out.local = local_shading(sp, &shading, &si, &bits, &tr);
     if (out.self) {
         SurfaceAttributes &a = *out.self;
         a.object_id = si.object_id;
         a.position = si.p;
         a.normal = n_stored;
         a.shadow_bits = bits;
-        a.uv = si.uv;
-        a.has_texture = has_texture(si.material);
+        if (collected_ & kAttrTexture) {
+            a.uv = si.uv;
+            a.has_texture = has_texture(si.material);
+        }
     }
     if (out.aov) {
         out.aov->albedo = bsdf->albedo_hint();
@@ -440,10 +497,10 @@ Sample WhittedIntegrator::finish_primary(const Ray &ray, std::optional<SurfaceIn
     HitOut out;
     out.from_camera = true;
     out.aov = &s;
-    if (options_.attributes) {
+    if (collected_ & kAttrPrimary)
         out.self = &ha.primary;
+    if (collected_ & kAttrSecondary)
         out.secondary = &ha.secondary;
-    }
     shade_ray(ray, hit, 0, tr, out);
     // radiance = local + global, each in film units, so that shade() can rebuild it exactly.
     const float scale = scene_.settings.image_scale;
@@ -453,7 +510,9 @@ Sample WhittedIntegrator::finish_primary(const Ray &ray, std::optional<SurfaceIn
     if (m > scene_.settings.max_component)
         s.radiance *= scene_.settings.max_component / m;
     s.rays = tr.rays;
-    if (options_.attributes) {
+    s.shadow_rays = tr.shadow_rays;
+    s.shadow_rays_avoided = tr.avoided;
+    if (collected_ & kAttrPrimary) {
         ha.local_color = local;
         ha.global_color = global;
         s.first_hit = ha;

@@ -51,9 +51,15 @@ struct WhittedOptions {
     int max_depth = 5;
     /// Recorded for logs only: the integrator draws no random numbers.
     uint32_t seed = 0;
-    /// Fill Sample::first_hit (the attribute vectors of the real-time modes); off saves the
-    /// bookkeeping when a plain image is wanted.
-    bool attributes = true;
+    /// Attribute groups (kAttr* bits of sampling/sample_source.h) the caller reads, e.g. the
+    /// frame plugin's PixelSampler::attributes_used(); kAttrNone: a plain image, no
+    /// Sample::first_hit.
+    uint32_t attributes = kAttrAll;
+    /// true: collect only `attributes` minus what the scene cannot have (no secondary record
+    /// without a specular material, no uv / has_texture without textures); the values of what is
+    /// collected are the same as on the general path, bit for bit. false (`--no-specialize`):
+    /// the general path, every group collected whatever `attributes` says.
+    bool specialize = true;
 };
 
 /// Deterministic Whitted ray tracer (see the file comment). Immutable after construction;
@@ -77,7 +83,9 @@ class WhittedIntegrator final : public SampleSource {
     /// rtcIntersect4 / rtcIntersect1). out.size() == samples.size().
     void evaluate_batch(std::span<const CameraSample> samples,
                         std::span<Sample> out) const override;
-    bool provides_attributes() const override { return options_.attributes; }
+    bool provides_attributes() const override { return collected_ != kAttrNone; }
+    /// The attribute groups evaluate() fills (kAttr* bits; see WhittedOptions).
+    uint32_t collected_attributes() const { return collected_; }
     /// Local shading of an (interpolated) attribute vector: emission and direct light at
     /// primary.position with primary.normal and primary.uv for primary.object_id's material,
     /// seen from the camera (its position; orthographic: its direction), light i visible
@@ -122,7 +130,7 @@ class WhittedIntegrator final : public SampleSource {
         Vec3f wo;  ///< unit direction toward the viewer
         Vec2f uv;
     };
-    /// Per-sample scratch (on the stack of evaluate).
+    /// Per-sample scratch and ray counters (on the stack of evaluate).
     struct Trace;
     /// What a caller of shade_ray wants besides the radiance.
     struct HitOut;
@@ -138,10 +146,12 @@ class WhittedIntegrator final : public SampleSource {
     /// frame. `si`: the real hit (evaluate), or null to rebuild the surface from sp (shade).
     std::optional<Bsdf> material_bsdf(const ShadePoint &sp, const SurfaceInteraction *si) const;
     /// Emission plus direct light at a shade point; `bsdf` is framed by sp.n. With `si`
-    /// (evaluate): one shadow ray per contributing light, setting *bits and counting *rays;
-    /// without (shade): visibility from *bits.
+    /// (evaluate): one shadow ray per light that can contribute, setting *bits and counting
+    /// tr's rays (traced and avoided); without (shade, tr null): visibility from *bits. A light
+    /// that cannot contribute (behind a reflection-only surface, the point behind a one-sided
+    /// emitter, outside a spot cone, zero radiance or BSDF value) is skipped identically in both.
     Rgb local_shading(const ShadePoint &sp, const Bsdf *bsdf, const SurfaceInteraction *si,
-                      uint32_t *bits, uint32_t *rays) const;
+                      uint32_t *bits, Trace *tr) const;
     Rgb environment(Vec3f dir) const;
     const Emission *emission_of(int32_t object_id) const;
     /// Unit direction toward the viewer from p (perspective: the camera position).
@@ -153,6 +163,7 @@ class WhittedIntegrator final : public SampleSource {
     std::vector<LightProxy> lights_;   ///< parallel to scene.lights
     std::vector<Emission> emissions_;  ///< sorted by object id
     std::vector<uint8_t> textured_;    ///< per material: reads a texture
+    uint32_t collected_ = kAttrAll;    ///< attribute groups filled (kAttr* bits)
     bool orthographic_ = false;
 };
 

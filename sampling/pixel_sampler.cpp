@@ -116,6 +116,7 @@ void FrameResult::reset(uint32_t w, uint32_t h) {
     // zero them in place instead of freeing and faulting in megabytes per frame.
     for (FrameLayer &l : diagnostics) l.data.assign(size_t(w) * h, 0.f);
     samples = rays_total = shaded = nan_samples = 0;
+    shadow_rays = shadow_rays_avoided = 0;
     active_fraction = 0;
     active_unit = "pixels";
 }

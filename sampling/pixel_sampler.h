@@ -17,10 +17,12 @@
 // (pixel, sample index) (sampling/sequence.h), so frames do not depend on the thread count.
 #pragma once
 
+#include <atomic>
 #include <cstdint>
 #include <deque>
 #include <functional>
 #include <memory>
+#include <span>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -84,6 +86,10 @@ struct FrameResult {
     std::deque<FrameLayer> diagnostics;
     uint64_t samples = 0;      ///< camera samples evaluated (primary rays traced)
     uint64_t rays_total = 0;   ///< all rays traced (primary, shadow, reflection, refraction)
+    uint64_t shadow_rays = 0;  ///< shadow rays traced (part of rays_total; Sample::shadow_rays)
+    /// Shadow rays the source did not trace because the light could not contribute (sum of
+    /// Sample::shadow_rays_avoided).
+    uint64_t shadow_rays_avoided = 0;
     uint64_t shaded = 0;       ///< attribute vectors shaded without a primary ray (`shade`)
     uint64_t nan_samples = 0;  ///< non-finite samples dropped
     /// Fraction of the plugin's decision units (pixels or subpixels) found active, i.e. given
@@ -96,6 +102,36 @@ struct FrameResult {
     /// Adds (or returns the existing) zero-filled diagnostic layer `name`. The reference stays
     /// valid until the next reset().
     FrameLayer &layer(const std::string &name);
+};
+
+/// A frame's shadow-ray counts (Sample::shadow_rays, shadow_rays_avoided), summed from
+/// concurrent run_tile calls with one atomic add per batch; integer sums, so the totals do not
+/// depend on the thread count.
+class FrameShadowRays {
+  public:
+    /// Serial (begin_frame).
+    void reset() {
+        traced_.store(0, std::memory_order_relaxed);
+        avoided_.store(0, std::memory_order_relaxed);
+    }
+    /// Thread-safe: adds the counts of a batch of evaluated samples.
+    void add(std::span<const Sample> samples) const {
+        uint64_t traced = 0, avoided = 0;
+        for (const Sample &s : samples) {
+            traced += s.shadow_rays;
+            avoided += s.shadow_rays_avoided;
+        }
+        traced_.fetch_add(traced, std::memory_order_relaxed);
+        avoided_.fetch_add(avoided, std::memory_order_relaxed);
+    }
+    /// Serial (end_frame): fills FrameResult::shadow_rays and shadow_rays_avoided.
+    void write(FrameResult &r) const {
+        r.shadow_rays = traced_.load(std::memory_order_relaxed);
+        r.shadow_rays_avoided = avoided_.load(std::memory_order_relaxed);
+    }
+
+  private:
+    mutable std::atomic<uint64_t> traced_{0}, avoided_{0};
 };
 
 /// A real-time sampling mode. One instance renders one frame at a time; `run_tile` is called
@@ -117,6 +153,10 @@ class PixelSampler {
     virtual void end_stage(int /*stage*/, const SampleSource & /*source*/) {}
     /// Serial, after the last stage: writes the frame's colours, rays, diagnostics and counts.
     virtual void end_frame(FrameResult &result) = 0;
+    /// The attribute groups (kAttr* bits, sampling/sample_source.h) this instance reads from
+    /// Sample::first_hit, for its parameters; the source may leave the rest out. Thread-safe,
+    /// constant for the instance. Default: everything (a plugin that does not say).
+    virtual uint32_t attributes_used() const { return kAttrAll; }
 };
 
 /// Progressive modes run on the adaptive scheduler; frame modes on the frame scheduler.

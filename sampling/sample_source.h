@@ -6,6 +6,7 @@
 #include <optional>
 #include <span>
 #include <string>
+#include <utility>
 
 #include "sampling/vecmath.h"
 
@@ -57,6 +58,37 @@ struct HitAttributes {
     // Sample::radiance == local_color + global_color (in film units, before any clamp).
 };
 
+/// Groups of the attribute vector an integrator collects (bit mask), at the granularity of the
+/// work an integrator can skip: a frame plugin declares what it reads
+/// (PixelSampler::attributes_used), the integrator collects that minus what the scene cannot have.
+enum AttributeBits : uint32_t {
+    kAttrNone = 0,
+    /// HitAttributes::primary's object id, position, normal and shadow bits, and the
+    /// local/global colour split: the record itself (Sample::first_hit is filled).
+    kAttrPrimary = 1u << 0,
+    /// uv and has_texture of every recorded hit (the material table lookup per hit).
+    kAttrTexture = 1u << 1,
+    /// HitAttributes::secondary (the first reflection/refraction hit).
+    kAttrSecondary = 1u << 2,
+    kAttrAll = kAttrPrimary | kAttrTexture | kAttrSecondary,
+};
+
+/// Readable names of the groups in `bits` ("primary+texture+secondary", "none").
+inline std::string describe_attributes(uint32_t bits) {
+    if (!(bits & kAttrAll))
+        return "none";
+    std::string s;
+    for (auto [bit, name] : {std::pair<uint32_t, const char *>{kAttrPrimary, "primary"},
+                             {kAttrTexture, "texture"},
+                             {kAttrSecondary, "secondary"}})
+        if (bits & bit) {
+            if (!s.empty())
+                s += '+';
+            s += name;
+        }
+    return s;
+}
+
 /// One evaluated sample: radiance and the AOVs the film keeps.
 struct Sample {
     Rgb radiance;
@@ -67,6 +99,7 @@ struct Sample {
     /// Shadow rays not traced because the light could not contribute (behind the surface or
     /// the light's emitting side, outside a spot cone, zero radiance or zero BSDF value).
     uint32_t shadow_rays_avoided = 0;
+    uint32_t shadow_rays = 0;  ///< shadow rays traced for this sample (included in `rays`)
     std::optional<HitAttributes> first_hit;
 };
 

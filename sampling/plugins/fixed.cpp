@@ -28,7 +28,10 @@ class FixedSampler final : public PixelSampler {
         color_.assign(size_t(width_) * height_, Rgb(0.f));
         rays_.assign(size_t(width_) * height_, 0.f);
         nan_.assign(size_t(width_) * height_, 0);
+        shadow_.reset();
     }
+    /// Only radiance: no attribute vector.
+    uint32_t attributes_used() const override { return kAttrNone; }
     int stage_count() const override { return 1; }
     std::string stage_name(int) const override { return "sample"; }
 
@@ -47,6 +50,7 @@ class FixedSampler final : public PixelSampler {
                     out.resize(n);
                     for (uint32_t k = 0; k < n; ++k) cs[k] = camera_sample(x, y, i0 + k);
                     source.evaluate_batch(cs, out);
+                    shadow_.add(out);
                     for (const Sample &s : out) {
                         rays += s.rays;
                         if (!std::isfinite(s.radiance.r) || !std::isfinite(s.radiance.g) ||
@@ -74,6 +78,7 @@ class FixedSampler final : public PixelSampler {
         for (uint32_t v : nan_) r.nan_samples += v;
         r.samples = uint64_t(spp_) * width_ * height_;
         r.rays_total = uint64_t(rays);
+        shadow_.write(r);
         r.active_fraction = 1.0;  // every pixel gets all K samples
     }
 
@@ -102,6 +107,7 @@ class FixedSampler final : public PixelSampler {
     std::vector<Rgb> color_;
     std::vector<float> rays_;
     std::vector<uint32_t> nan_;
+    FrameShadowRays shadow_;
 };
 
 }  // namespace

@@ -270,10 +270,17 @@ class FlipSampler final : public PixelSampler {
         if (color_out_.size() != n)
             color_out_.assign(n, Rgb(0.f));
         samples_ = rays_total_ = nan_ = active_ = resolved_ = 0;
+        shadow_.reset();
         fused_ = p_.prev_threshold && have_prev_;
         if (fused_)
             for (int c = 0; c < 3; ++c)
                 threshold_[size_t(c)] = p_.threshold_scale * prev_avg_[size_t(c)];
+    }
+
+    /// Only radiance, except texture_average: texture existence, object id and shadow bits of
+    /// the primary hit and the secondary hit's object id (the TextureKey).
+    uint32_t attributes_used() const override {
+        return p_.texture_average ? kAttrPrimary | kAttrTexture | kAttrSecondary : kAttrNone;
     }
 
     int stage_count() const override { return fused_ ? 2 : 3; }
@@ -317,6 +324,7 @@ class FlipSampler final : public PixelSampler {
         r.layer("gradient").data.swap(ratio_out_);
         r.samples = samples_.load();
         r.rays_total = rays_total_.load();
+        shadow_.write(r);
         r.nan_samples = nan_.load();
         r.shaded = 0;
         r.active_unit = "pixels";
@@ -483,6 +491,7 @@ class FlipSampler final : public PixelSampler {
             return;
         source.evaluate_batch(std::span<const CameraSample>(pk.cs.data(), pk.n),
                               std::span<Sample>(pk.out.data(), pk.n));
+        shadow_.add(std::span<const Sample>(pk.out.data(), pk.n));
         for (uint32_t k = 0; k < pk.n; ++k) {
             const Sample &s = pk.out[k];
             const SiteTarget &t = pk.target[k];
@@ -667,6 +676,7 @@ class FlipSampler final : public PixelSampler {
                 return;
             source.evaluate_batch(std::span<const CameraSample>(pk.cs.data(), pk.n),
                                   std::span<Sample>(pk.out.data(), pk.n));
+            shadow_.add(std::span<const Sample>(pk.out.data(), pk.n));
             for (uint32_t k = 0; k < pk.n; ++k) {
                 ExtraSum &e = *pk.target[k];
                 const Sample &smp = pk.out[k];
@@ -777,6 +787,7 @@ class FlipSampler final : public PixelSampler {
     std::vector<Rgb> color_out_;
     std::vector<float> rays_out_, active_out_, ratio_out_;
     std::atomic<uint64_t> samples_{0}, rays_total_{0}, nan_{0}, active_{0}, resolved_{0};
+    FrameShadowRays shadow_;
     bool fused_ = false;      ///< this frame uses the previous threshold (2 stages)
     bool have_prev_ = false;  ///< prev_avg_ holds a complete frame's average
     std::array<double, 3> prev_avg_{0, 0, 0};   ///< previous frame's average gradient

@@ -168,6 +168,7 @@ class JinSampler final : public PixelSampler {
 
     void begin_frame(const SampleSource &source) override {
         attributes_ = source.provides_attributes();
+        shadow_.reset();
         // The presample stage (re)initialises every per-pixel value of its tile, in parallel,
         // and stamps the pixel with the frame number; only a size change clears here (serial).
         if (source.width() != width_ || source.height() != height_ || centre_.empty()) {
@@ -201,6 +202,19 @@ class JinSampler final : public PixelSampler {
     std::string stage_name(int stage) const override {
         static const char *const names[] = {"presample", "test", "supersample"};
         return stage >= 0 && stage < 3 ? names[stage] : PixelSampler::stage_name(stage);
+    }
+
+    /// Table 1's attributes that an enabled comparison reads: object ids, normals and shadow
+    /// counts of the primary hit always (a hit is known by its id); texture existence only with
+    /// tau_pte or tau_ste below 1; the secondary hit only when a secondary comparison is
+    /// enabled or focus=ID is set (a focus object may be seen in a mirror).
+    uint32_t attributes_used() const override {
+        uint32_t a = kAttrPrimary;
+        if (enabled_ & (kPte | kSte))
+            a |= kAttrTexture;
+        if ((enabled_ & (kSoid | kSsn | kSsc | kSte)) || p_.focus >= 0)
+            a |= kAttrSecondary;
+        return a;
     }
 
     void run_tile(int stage, const PixelRect &tile, const SampleSource &source) override {
@@ -250,6 +264,7 @@ class JinSampler final : public PixelSampler {
             rays += double(rays_[i]);
         }
         r.rays_total = uint64_t(rays);
+        shadow_.write(r);
         r.active_unit = "subpixels";
         r.active_fraction = color_.empty() ? 0.0 : double(active_total) / double(4 * color_.size());
     }
@@ -288,6 +303,7 @@ class JinSampler final : public PixelSampler {
             }
             source.evaluate_batch(std::span<const CameraSample>(cs.data(), n),
                                   std::span<Sample>(out.data(), n));
+            shadow_.add(std::span<const Sample>(out.data(), n));
             for (uint32_t k = 0; k < n; ++k) {
                 const size_t i = index(cs[k].px, cs[k].py);
                 const Sample &s = out[k];
@@ -504,6 +520,7 @@ class JinSampler final : public PixelSampler {
                     cs[4 * k + s] = extra_sample(packed[start + k], s);
             source.evaluate_batch(std::span<const CameraSample>(cs.data(), 4 * m),
                                   std::span<Sample>(out.data(), 4 * m));
+            shadow_.add(std::span<const Sample>(out.data(), 4 * m));
             for (uint32_t k = 0; k < m; ++k) {
                 const size_t i = packed[start + k] >> 2;
                 if (i != pixel) {
@@ -539,6 +556,7 @@ class JinSampler final : public PixelSampler {
     JinParams p_;
     uint8_t enabled_ = 0;  ///< attribute bits whose threshold is below 1 (deviation 3)
     bool attributes_ = false;
+    FrameShadowRays shadow_;
     uint32_t width_ = 0, height_ = 0;
     // Per pixel, row-major.
     std::vector<Rgb> centre_;  ///< presampled colour: shaded colour image and colour reference

@@ -377,6 +377,7 @@ class KimSampler final : public PixelSampler {
         shaded_total_.store(0, std::memory_order_relaxed);
         nan_total_.store(0, std::memory_order_relaxed);
         rays_total_.store(0, std::memory_order_relaxed);
+        shadow_.reset();
         if (line_flags_size_ < std::max(lw_, lh_)) {
             line_flags_size_ = std::max(lw_, lh_);
             line_flags_ = std::make_unique<std::atomic<uint8_t>[]>(line_flags_size_);
@@ -385,6 +386,11 @@ class KimSampler final : public PixelSampler {
             line_flags_[i].store(0, std::memory_order_relaxed);
         th_.pos = t_pos_ * scene_size_;
     }
+
+    /// The ray-attribute vector of the primary hit (OID, POS, NORM, SHDBIT, GCOL; all read by
+    /// shade() whatever the thresholds) and TCOORD with texture existence (the TX check, and
+    /// shade() of textured materials). Never the secondary hit (not interpolated).
+    uint32_t attributes_used() const override { return kAttrPrimary | kAttrTexture; }
 
     int stage_count() const override { return int(stages_.size()); }
     std::string stage_name(int stage) const override { return stages_[size_t(stage)].name; }
@@ -432,6 +438,7 @@ class KimSampler final : public PixelSampler {
         r.shaded = shaded_total_.load(std::memory_order_relaxed);
         r.nan_samples = nan_total_.load(std::memory_order_relaxed);
         r.rays_total = rays_total_.load(std::memory_order_relaxed);
+        shadow_.write(r);
         const double points = double(lw_) * double(lh_);
         r.active_fraction = points > 0 ? double(traced) / points : 0.0;
         r.active_unit = ss_ == 1 ? "pixels" : "subpixels";
@@ -472,6 +479,7 @@ class KimSampler final : public PixelSampler {
                 sc.cs[k] = camera_sample(coords[i0 + k].x, coords[i0 + k].y);
             source.evaluate_batch(std::span<const CameraSample>(sc.cs.data(), n),
                                   std::span<Sample>(sc.out.data(), n));
+            shadow_.add(std::span<const Sample>(sc.out.data(), n));
             for (size_t k = 0; k < n; ++k)
                 store(i0 + k, sc.out[k]);
         }
@@ -683,6 +691,7 @@ class KimSampler final : public PixelSampler {
                     continue;
                 const Attr old = attr_[ic];
                 s = source.evaluate(camera_sample(x, y));
+                shadow_.add(std::span<const Sample>(&s, 1));
                 apply_correction(ic, old, s);
             }
         }
@@ -752,6 +761,7 @@ class KimSampler final : public PixelSampler {
     std::vector<float> pix_rays_, pix_traced_, pix_class_, pix_check_, pix_pc_;
     // Frame totals, summed per tile by the resolve stage.
     std::atomic<uint64_t> traced_total_{0}, shaded_total_{0}, nan_total_{0}, rays_total_{0};
+    FrameShadowRays shadow_;
 
     // Post-correction: lines (rows or columns) whose chains cross a tile border.
     std::unique_ptr<std::atomic<uint8_t>[]> line_flags_;

@@ -223,7 +223,11 @@ class SuffernSampler final : public PixelSampler {
         points_.assign(n, 0);
         next_slot_.store(0, std::memory_order_relaxed);
         traced_.store(0, std::memory_order_relaxed);
+        shadow_.reset();
     }
+
+    /// Only radiance: no attribute vector.
+    uint32_t attributes_used() const override { return kAttrNone; }
 
     int stage_count() const override { return int(stages_.size()); }
 
@@ -292,6 +296,7 @@ class SuffernSampler final : public PixelSampler {
         }
         r.samples = traced_.load();
         r.rays_total = rays;
+        shadow_.write(r);
         r.active_fraction = color_.empty() ? 0.0 : double(split) / double(color_.size());
         r.active_unit = "pixels";
     }
@@ -346,6 +351,7 @@ class SuffernSampler final : public PixelSampler {
             return;
         source.evaluate_batch(std::span<const CameraSample>(b.cs.data(), b.n),
                               std::span<Sample>(b.out.data(), b.n));
+        shadow_.add(std::span<const Sample>(b.out.data(), b.n));
         for (size_t k = 0; k < b.n; ++k) {
             const Sample &s = b.out[k];
             rays_[b.tracer[k]] += s.rays;
@@ -574,6 +580,7 @@ class SuffernSampler final : public PixelSampler {
     std::vector<uint8_t> level_, points_;
     std::atomic<uint32_t> next_slot_{0};
     std::atomic<uint64_t> traced_{0};
+    FrameShadowRays shadow_;
 };
 
 }  // namespace
