@@ -11,6 +11,7 @@ and whether the image is identical to the default render (MSE from `tessera diff
 
 Usage: scripts/bench_specialize.py [--tessera build/tessera] [--rounds 5] [--spp 32]
        [--resolution 256x256] [--threads 1] [--csv out.csv]
+Exits 1 when some image differs from the specialised render's (they must be identical).
 Scenes from ../shared/scenes are used when present (skipped with a message otherwise).
 """
 import argparse
@@ -124,7 +125,12 @@ def main():
             w = csv.DictWriter(f, fieldnames=cols)
             w.writeheader()
             w.writerows(rows)
-    return 0
+    # Every specialisation promises the general path's image bit for bit.
+    differ = [r for r in rows if r["image_mse_vs_specialised"] != 0]
+    for r in differ:
+        print(f"ERROR: {r['scene']}, {r['variant']}: image differs from the specialised one "
+              f"(MSE {r['image_mse_vs_specialised']})", file=sys.stderr)
+    return 1 if differ or not rows else 0
 
 
 if __name__ == "__main__":
