@@ -52,8 +52,13 @@ configure_and_build() {
   cmake --build "$build" -j "$jobs"
 }
 
+# Wall time of each stage, for the CI log ("setup: <stage> done at <seconds> s").
+stage_done() { echo "setup: $1 done at ${SECONDS} s"; }
+
 install_packages
+stage_done packages
 configure_and_build
+stage_done "Release build"
 
 case "$mode" in
   render)
@@ -65,20 +70,24 @@ case "$mode" in
   test)
     # Slow tests are labelled "slow" and run only when asked (CTEST_ARGS="-L slow").
     (cd "$build" && ctest --output-on-failure -j "$jobs" -LE slow ${CTEST_ARGS:-})
+    stage_done "Release tests"
     # The scheduler owns every thread: its tests (label tsan) also run in a ThreadSanitizer
     # build of the layers below the renderer (quick: no Embree code). TSAN=0 skips it.
     if [[ "${TSAN:-1}" == "1" ]]; then
       JOBS="$jobs" TSAN_BUILD_DIR="${TSAN_BUILD_DIR:-$root/build-tsan}" \
         "$root/scripts/run_sanitizers.sh" tsan
+      stage_done "TSan build and tests"
     fi
     # The unit and command-line tests (the broken-scene corpus among them) under ASan+UBSan,
     # built with clang; then each fuzz target for FUZZ_SECONDS from the same build.
     asan_dir="${ASAN_BUILD_DIR:-$root/build-asan}"
     if [[ "${ASAN:-1}" == "1" ]]; then
       JOBS="$jobs" ASAN_BUILD_DIR="$asan_dir" "$root/scripts/run_sanitizers.sh" asan
+      stage_done "ASan+UBSan build and tests"
     fi
     if [[ "${FUZZ:-1}" == "1" ]]; then
       JOBS="$jobs" FUZZ_BUILD_DIR="$asan_dir" "$root/scripts/run_fuzz.sh" "${FUZZ_SECONDS:-20}"
+      stage_done "fuzzing"
     fi
     ;;
   build) ;;
