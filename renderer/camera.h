@@ -70,6 +70,7 @@ class PerspectiveCamera {
     void set_world_from_camera(const Transform &world_from_camera);
     /// Camera-space direction toward +z transformed to world.
     Vec3f forward() const { return normalize(world_from_camera_.vector({0, 0, 1})); }
+    bool orthographic() const { return orthographic_; }
     /// Approximate position differentials at point p with normal n, for texture filtering
     /// (pbrt-v4 CameraBase::Approximate_dp_dxy), used after the first bounce.
     void approximate_dp_dxy(Vec3f p, Vec3f n, int spp, Vec3f *dpdx, Vec3f *dpdy) const;

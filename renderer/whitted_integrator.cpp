@@ -202,6 +202,12 @@ WhittedIntegrator::WhittedIntegrator(const Scene &scene, const WhittedOptions &o
     collected_ = options_.specialize ? wanted & scene_can_have : uint32_t(kAttrAll);
 }
 
+float WhittedIntegrator::view_depth(Vec3f p) const {
+    const PerspectiveCamera &cam = *scene_.camera;
+    if (cam.orthographic()) return 1.f;
+    return dot(p - cam.position(), cam.forward());
+}
+
 std::string WhittedIntegrator::describe() const {
     size_t area = 0, delta = 0;
     for (const LightProxy &l : lights_) {

@@ -97,6 +97,8 @@ class WhittedIntegrator final : public SampleSource {
     /// emissive mesh whose triangles have different radiance ("power" is per triangle) is seen
     /// with its first triangle's radiance in shade().
     Rgb shade(const HitAttributes &attributes) const override;
+    /// Distance of p in front of the camera along its viewing axis (1 for orthographic).
+    float view_depth(Vec3f p) const override;
     std::string describe() const override;
 
     const WhittedOptions &options() const { return options_; }

@@ -127,6 +127,11 @@ class SampleSource {
     /// shading at primary.position / normal / uv with the shadow bits as given (no shadow rays),
     /// plus global_color. Default (sources without attributes): black.
     virtual Rgb shade(const HitAttributes &) const { return Rgb(0.f); }
+    /// Depth of world point p along the camera's viewing axis (perspective projection divides
+    /// by it), for perspective-correct interpolation of attribute vectors in screen space.
+    /// 1 when the projection is affine (orthographic cameras, synthetic sources): then linear
+    /// interpolation is the correct one.
+    virtual float view_depth(Vec3f /*p*/) const { return 1.f; }
     /// One readable line describing the source, for logs.
     virtual std::string describe() const = 0;
 };

@@ -17,7 +17,8 @@ namespace {
 class FixedSampler final : public PixelSampler {
   public:
     explicit FixedSampler(const PluginParams &p)
-        : spp_(uint32_t(p.get_int("spp"))), seed_(uint32_t(p.get_int("seed"))) {
+        : spp_(uint32_t(p.get_int("spp"))), seed_(uint32_t(p.get_int("seed"))),
+          jitter_(p.get_int("jitter") != 0) {
         grid_ = uint32_t(std::lround(std::sqrt(double(spp_))));
         if (grid_ * grid_ != spp_) grid_ = 0;
     }
@@ -88,7 +89,9 @@ class FixedSampler final : public PixelSampler {
         s.start_pixel_sample(x, y, i);
         Vec2f u;
         if (grid_) {
-            Vec2f j = s.get_pixel_2d();  // jitter inside the cell
+            // Jitter inside the cell, or its centre (jitter=0: the pixel centre for spp=1, what
+            // the undersampling papers' "ray tracing at one sample per pixel" traces).
+            Vec2f j = jitter_ ? s.get_pixel_2d() : Vec2f(0.5f, 0.5f);
             u = Vec2f((float(i % grid_) + j.x) / float(grid_), (float(i / grid_) + j.y) / float(grid_));
         } else {
             u = s.get_pixel_2d();
@@ -103,6 +106,7 @@ class FixedSampler final : public PixelSampler {
     }
 
     uint32_t spp_, seed_, grid_ = 0;
+    bool jitter_ = true;
     uint32_t width_ = 0, height_ = 0;
     std::vector<Rgb> color_;
     std::vector<float> rays_;
@@ -121,6 +125,8 @@ PluginInfo fixed_plugin_info() {
     info.params = {
         {"spp", 1, 1, 256, true, "samples per pixel"},
         {"seed", 0, 0, 4294967295.0, true, "sequence seed of the jitter"},
+        {"jitter", 1, 0, 1, true,
+         "1: one jittered point per grid cell; 0: the cell centres (square spp only)"},
     };
     info.make = [](const PluginParams &p) -> std::unique_ptr<PixelSampler> {
         return std::make_unique<FixedSampler>(p);

@@ -88,7 +88,7 @@ TEST_CASE("plugin registry: names, kinds, parameter parsing and errors") {
     CHECK(s.params.get_int("spp") == 9);
     CHECK(s.params.is_set("spp"));
     CHECK_FALSE(s.params.is_set("seed"));
-    CHECK(s.describe() == "fixed:spp=9,seed=0");
+    CHECK(s.describe() == "fixed:spp=9,seed=0,jitter=1");
 
     PluginSpec a = parse_plugin_spec("adaptive:min_spp=8,error=0.002");  // '_' == '-'
     CHECK(a.params.get("min-spp") == 8);
