@@ -4,6 +4,7 @@
 #include <atomic>
 #include <mutex>
 #include <set>
+#include <utility>
 
 #include "sampling/pixel_sampler.h"
 #include "scheduler/frame_scheduler.h"
@@ -173,6 +174,43 @@ TEST_CASE("fixed: square K puts one sample in each cell of the N x N grid") {
     FrameResult r;
     sched::FrameScheduler(sched::FrameOptions{1}).render(*plugin, src, r);
     CHECK(src.cells.size() == 9);
+}
+
+TEST_CASE("fixed: jitter=0 samples the cell centres exactly") {
+    // Every offset seen, per pixel; spp=1 must be the pixel centre, spp=4 the quarter centres.
+    struct CentreSource final : public SampleSource {
+        uint32_t width() const override { return 3; }
+        uint32_t height() const override { return 2; }
+        std::string describe() const override { return "centres"; }
+        Sample evaluate(const CameraSample &cs) const override {
+            std::lock_guard<std::mutex> l(m);
+            offsets.insert({cs.fx, cs.fy});
+            return Sample{};
+        }
+        mutable std::mutex m;
+        mutable std::set<std::pair<float, float>> offsets;
+    };
+    // (No structured bindings: clang 14 cannot capture them in CAPTURE's lambda.)
+    using Case = std::pair<const char *, std::set<std::pair<float, float>>>;
+    for (const Case &c :
+         {Case{"fixed:spp=1,jitter=0", {{0.5f, 0.5f}}},
+          Case{"fixed:spp=4,jitter=0",
+               {{0.25f, 0.25f}, {0.75f, 0.25f}, {0.25f, 0.75f}, {0.75f, 0.75f}}}}) {
+        const std::string spec = c.first;
+        const std::set<std::pair<float, float>> &expected = c.second;
+        CAPTURE(spec);
+        CentreSource src;
+        auto plugin = find_plugin("fixed")->make(parse_plugin_spec(spec).params);
+        FrameResult r;
+        sched::FrameScheduler(sched::FrameOptions{2}).render(*plugin, src, r);
+        CHECK(src.offsets == expected);
+    }
+    // The default jitters: the offsets of spp=1 are not all the centre.
+    CentreSource src;
+    auto plugin = find_plugin("fixed")->make(parse_plugin_spec("fixed:spp=1").params);
+    FrameResult r;
+    sched::FrameScheduler(sched::FrameOptions{2}).render(*plugin, src, r);
+    CHECK(src.offsets.size() > 1);
 }
 
 TEST_CASE("fixed: frames are identical for 1 and 3 threads") {
