@@ -107,14 +107,25 @@ std::string PluginParams::describe() const {
 // ---------------------------------------------------------------------------------------------
 // FrameResult
 
-void FrameResult::reset(uint32_t w, uint32_t h) {
+void FrameResult::reset(uint32_t w, uint32_t h, bool zero) {
     width = w;
     height = h;
-    color.assign(size_t(w) * h, Rgb(0.f));
-    rays.assign(size_t(w) * h, 0.f);
+    const size_t n = size_t(w) * h;
+    if (zero) {
+        color.assign(n, Rgb(0.f));
+        rays.assign(n, 0.f);
+    } else {
+        color.resize(n, Rgb(0.f));
+        rays.resize(n, 0.f);
+    }
     // Keep the layers' memory from frame to frame (a plugin asks for the same layers again):
     // zero them in place instead of freeing and faulting in megabytes per frame.
-    for (FrameLayer &l : diagnostics) l.data.assign(size_t(w) * h, 0.f);
+    for (FrameLayer &l : diagnostics) {
+        if (zero)
+            l.data.assign(n, 0.f);
+        else
+            l.data.resize(n, 0.f);
+    }
     samples = rays_total = shaded = nan_samples = 0;
     shadow_rays = shadow_rays_avoided = 0;
     active_fraction = 0;

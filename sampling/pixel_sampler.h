@@ -97,8 +97,10 @@ struct FrameResult {
     double active_fraction = 0;
     std::string active_unit = "pixels";
     /// Clears and sizes every buffer for a w x h frame (existing diagnostic layers are kept,
-    /// zeroed, so that their memory is reused from frame to frame).
-    void reset(uint32_t w, uint32_t h);
+    /// zeroed, so that their memory is reused from frame to frame). zero = false only sizes
+    /// the buffers, leaving old values: for a plugin that overwrites every pixel of every
+    /// buffer it swaps in (kim's resolve), which then pays no memset per frame.
+    void reset(uint32_t w, uint32_t h, bool zero = true);
     /// Adds (or returns the existing) zero-filled diagnostic layer `name`. The reference stays
     /// valid until the next reset().
     FrameLayer &layer(const std::string &name);

@@ -171,6 +171,10 @@ struct Attr {
     uint32_t shadow = 0;
     uint8_t has_texture = 0;
     uint8_t valid = 0;  ///< 0: the sample had no attribute vector
+    /// View depth of pos (SampleSource::view_depth), computed once per point: by the source for
+    /// a traced point, by perspective-correct interpolation (1/z is linear in screen space)
+    /// for an interpolated one. 0: unknown (no hit, or behind the camera).
+    float z = 0;
 };
 
 /// Everything of a lattice point but its attribute vector (24 bytes: the resolve and the
@@ -280,12 +284,17 @@ uint8_t first_failed_check(const Attr &a, const Attr &b, const Thresholds &th) {
 /// along the segment between the two hit points; linear (s = t) when the depths are equal or
 /// unusable (affine cameras, a reference behind the camera, extrapolation past the horizon).
 Attr interpolate(const Attr &a, const Attr &b, float t, float za = 1.f, float zb = 1.f) {
-    if (za > 0.f && zb > 0.f && za != zb) {
+    float z = 0.f;
+    if (za > 0.f && zb > 0.f) {
         const float den = (1.f - t) / za + t / zb;
-        const float s = (t / zb) / den;
-        if (den > 0.f && std::isfinite(s)) t = s;
+        if (den > 0.f) z = 1.f / den;
+        if (za != zb) {
+            const float s = (t / zb) / den;
+            if (den > 0.f && std::isfinite(s)) t = s;
+        }
     }
     Attr r = a;
+    r.z = std::isfinite(z) ? z : 0.f;
     r.pos = a.pos + (b.pos - a.pos) * t;
     if (a.normal.x != b.normal.x || a.normal.y != b.normal.y || a.normal.z != b.normal.z) {
         const Vec3f n = a.normal + (b.normal - a.normal) * t;
@@ -374,8 +383,11 @@ class KimSampler final : public PixelSampler {
         // Nothing is cleared per frame: every stage writes all fields of the points it
         // computes, and a stage reads only points of earlier stages. A cancelled frame runs no
         // tile of any later stage (scheduler/frame_scheduler.h), so the resolve never sees a
-        // point left from the previous frame. The per-pixel outputs are zero at the start of
-        // every frame: end_frame swaps them with the freshly reset buffers of the FrameResult.
+        // point left from the previous frame. The per-pixel outputs are zero at the start of the
+        // first frame; after that they hold the frame before last (end_frame swaps them with
+        // the FrameResult's, unzeroed), which the resolve overwrites everywhere. A cancelled
+        // frame may therefore keep old pixels where its resolve did not run; the real-time
+        // loop discards cancelled frames.
         if (attr_.size() != n) {
             attr_.assign(n, Attr{});
             pts_.assign(n, Point{});
@@ -391,6 +403,13 @@ class KimSampler final : public PixelSampler {
         nan_total_.store(0, std::memory_order_relaxed);
         rays_total_.store(0, std::memory_order_relaxed);
         shadow_.reset();
+        const size_t blocks = size_t(blocks_x_) * blocks_y;
+        if (block_seed_size_ != blocks) {
+            block_seed_size_ = blocks;
+            block_seed_ = std::make_unique<std::atomic<uint8_t>[]>(blocks);
+        }
+        for (size_t b = 0; b < blocks; ++b)
+            block_seed_[b].store(0, std::memory_order_relaxed);
         if (line_flags_size_ < std::max(lw_, lh_)) {
             line_flags_size_ = std::max(lw_, lh_);
             line_flags_ = std::make_unique<std::atomic<uint8_t>[]>(line_flags_size_);
@@ -438,7 +457,8 @@ class KimSampler final : public PixelSampler {
     }
 
     void end_frame(FrameResult &r) override {
-        r.reset(width_, height_);
+        // The resolve writes every pixel of every buffer swapped in below: no zeroing needed.
+        r.reset(width_, height_, /*zero=*/false);
         // Swap, not copy: our buffers get the result's zeroed ones for the next frame.
         r.color.swap(pix_color_);
         r.rays.swap(pix_rays_);
@@ -500,8 +520,12 @@ class KimSampler final : public PixelSampler {
 
     /// Stores a traced sample into point i (attributes, colour, rays; a post-correction ray
     /// adds to the rays of the point's interpolation, which are 0).
-    void store_traced(size_t i, const Sample &s) {
+    void store_traced(size_t i, const Sample &s, const SampleSource &source) {
         attr_[i] = attr_from(s);
+        if (attr_[i].valid && attr_[i].oid >= 0) {
+            const float z = source.view_depth(attr_[i].pos);
+            attr_[i].z = z > 0.f && std::isfinite(z) ? z : 0.f;
+        }
         pts_[i].color = s.radiance;
         pts_[i].rays += s.rays;
         pts_[i].nan = s.radiance.is_finite() ? 0 : 1;
@@ -517,7 +541,7 @@ class KimSampler final : public PixelSampler {
         trace(coords, source, [&](size_t k, const Sample &s) {
             const size_t i = at(coords[k].x, coords[k].y);
             pts_[i] = Point{};  // class 0 (B), no check
-            store_traced(i, s);
+            store_traced(i, s, source);
             pts_[i].state = kBase;
         });
     }
@@ -595,8 +619,7 @@ class KimSampler final : public PixelSampler {
                 }
                 const Attr &a = attr_[ia], &b = attr_[ib];
                 if (a.oid >= 0)
-                    attr_[i] = interpolate(a, b, t, source.view_depth(a.pos),
-                                           source.view_depth(b.pos));
+                    attr_[i] = interpolate(a, b, t, a.z, b.z);
                 else
                     attr_[i] = interpolate(a, b, t);
                 if (a.oid >= 0) {
@@ -612,8 +635,9 @@ class KimSampler final : public PixelSampler {
         // Step-II-b/c: the failed points, packed, traced together.
         trace(coords, source, [&](size_t k, const Sample &smp) {
             const size_t i = at(coords[k].x, coords[k].y);
-            store_traced(i, smp);
+            store_traced(i, smp, source);
             pts_[i].state = kTracedA;
+            mark_seed(i);
         });
     }
 
@@ -627,12 +651,20 @@ class KimSampler final : public PixelSampler {
     }
 
     /// Stores the post-correction ray of point i whose interpolated vector was `old`.
-    void apply_correction(size_t i, const Attr &old, const Sample &s) {
-        store_traced(i, s);
+    void apply_correction(size_t i, const Attr &old, const Sample &s,
+                          const SampleSource &source) {
+        store_traced(i, s, source);
         const Attr &now = attr_[i];
         const bool changed = now.oid != old.oid || (pc_shadow_ && now.shadow != old.shadow);
         pts_[i].state = changed ? kCorrected : kRetraced;
         pts_[i].pc = changed ? 2 : 1;
+        if (changed)
+            mark_seed(i);
+    }
+
+    /// Notes that the block of point i (an index from at()) holds a seed of post-correction.
+    void mark_seed(size_t i) {
+        block_seed_[i >> (2 * block_shift_)].store(1, std::memory_order_relaxed);
     }
 
     /// One scan over the tile's own line segments, all lines of the tile in lock step so that
@@ -645,15 +677,16 @@ class KimSampler final : public PixelSampler {
         auto point = [&](uint32_t along, uint32_t line) {
             return st.horizontal ? at(along, line) : at(line, along);
         };
-        // Most tiles hold no ray-traced adaptive pixel: nothing to scan, nothing to flag.
+        // Most tiles hold no ray-traced adaptive pixel: nothing to scan, nothing to flag. The
+        // per-block seed flags answer that without reading the tile's points.
         bool any_seed = false;
-        for (uint32_t y = y0; y < y1 && !any_seed; ++y)
-            for (uint32_t x = x0; x < x1; ++x)
-                if (is_seed(pts_[at(x, y)].state)) {
+        for (uint32_t by = y0 >> block_shift_; by <= (y1 - 1) >> block_shift_ && !any_seed; ++by)
+            for (uint32_t bx = x0 >> block_shift_; bx <= (x1 - 1) >> block_shift_; ++bx)
+                if (block_seed_[size_t(by) * blocks_x_ + bx].load(std::memory_order_relaxed)) {
                     any_seed = true;
                     break;
                 }
-        if (!any_seed)
+        if (!any_seed || x1 <= x0 || y1 <= y0)
             return;
         Scratch &sc = scratch();
         const uint32_t n_along = a1 - a0;
@@ -672,7 +705,7 @@ class KimSampler final : public PixelSampler {
             if (sc.coords.empty())
                 continue;
             trace(sc.coords, source, [&](size_t j, const Sample &s) {
-                apply_correction(at(sc.coords[j].x, sc.coords[j].y), sc.old[j], s);
+                apply_correction(at(sc.coords[j].x, sc.coords[j].y), sc.old[j], s, source);
             });
         }
         // A chain that reaches the segment's end continues in the next tile: flag the line for
@@ -709,7 +742,7 @@ class KimSampler final : public PixelSampler {
                 const Attr old = attr_[ic];
                 s = source.evaluate(camera_sample(x, y));
                 shadow_.add(std::span<const Sample>(&s, 1));
-                apply_correction(ic, old, s);
+                apply_correction(ic, old, s, source);
             }
         }
     }
@@ -783,6 +816,10 @@ class KimSampler final : public PixelSampler {
     // Post-correction: lines (rows or columns) whose chains cross a tile border.
     std::unique_ptr<std::atomic<uint8_t>[]> line_flags_;
     uint32_t line_flags_size_ = 0;
+    // Per block of at(): 1 when it holds a seed (kTracedA or kCorrected) this frame, so that a
+    // scan skips the tiles without one without reading their points.
+    std::unique_ptr<std::atomic<uint8_t>[]> block_seed_;
+    size_t block_seed_size_ = 0;
 };
 
 }  // namespace

@@ -681,3 +681,29 @@ TEST_CASE("kim: close to full ray tracing on a busy scene, with far fewer rays")
     CHECK(on.active_fraction > off.active_fraction);
     CHECK(on.samples + on.shaded >= 45u * 38u);
 }
+
+TEST_CASE("kim: a frame after other frames equals the first frame of a fresh plugin") {
+    // The plugin keeps its lattice, its per-block seed flags and (unzeroed) output buffers from
+    // frame to frame: nothing of an earlier frame may leak into a later one. Frames 1 and 2
+    // see different scenes (a plain plane, then the busy scene); frame 3 the busy scene again.
+    for (const char *params : {"scene-size=300", "scene-size=300,block=4,ss=2"}) {
+        CAPTURE(params);
+        auto busy = busy_scene();
+        SyntheticAttributeSource plain(45, 38);
+        plain.shapes[0].color = Rgb(0.9f, 0.1f, 0.4f);
+        PluginSpec spec = parse_plugin_spec(std::string("kim:") + params);
+        std::unique_ptr<PixelSampler> sampler = spec.info->make(spec.params);
+        sched::FrameScheduler scheduler(sched::FrameOptions{2, sched::kTileSize});
+        FrameResult r;
+        scheduler.render(*sampler, plain, r);
+        scheduler.render(*sampler, *busy, r);
+        const FrameResult fresh = render_kim(*busy, params, 1);
+        check_same_frame(fresh, r);
+        scheduler.render(*sampler, *busy, r);
+        check_same_frame(fresh, r);
+        // The busy scene does post-correct: the seed flags of frame 2 were used.
+        float corrected = 0;
+        for (float v : layer(r, "postcorrected").data) corrected = std::max(corrected, v);
+        CHECK(corrected == 2.f);
+    }
+}
