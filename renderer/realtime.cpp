@@ -58,6 +58,7 @@ void run_frames(const RenderOptions &opt, Scene &scene, const SamplerSpec &sampl
         wo.seed = scene.settings.seed;
         wo.attributes = plugin->attributes_used();
         wo.specialize = !(opt.no_specialize & kSpecAttributes);
+        wo.lambertian = !(opt.no_specialize & kSpecLambertian);
         auto whitted = std::make_unique<WhittedIntegrator>(scene, wo);
         attributes_collected = describe_attributes(whitted->collected_attributes());
         source = std::move(whitted);

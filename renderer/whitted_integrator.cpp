@@ -97,6 +97,11 @@ struct WhittedIntegrator::HitOut {
 WhittedIntegrator::WhittedIntegrator(const Scene &scene, const WhittedOptions &options)
     : scene_(scene), options_(options) {
     options_.max_depth = std::max(0, options_.max_depth);
+    if (options_.lambertian) {
+        lambertian_.resize(scene_.materials.size());
+        for (size_t m = 0; m < scene_.materials.size(); ++m)
+            if (scene_.materials[m]) lambertian_[m] = scene_.materials[m]->constant_lambertian();
+    }
     // The camera has no "is orthographic" query: its rays are parallel and start at
     // different points exactly then.
     if (scene_.camera) {
@@ -565,9 +570,15 @@ Rgb WhittedIntegrator::shade(const HitAttributes &attributes) const {
         sp.n = normalize(a.normal);
         sp.uv = a.uv;
         sp.wo = viewer_direction(a.position);
-        std::optional<Bsdf> bsdf = material_bsdf(sp, nullptr);
         uint32_t bits = a.shadow_bits;
-        if (bsdf) {
+        const size_t m = size_t(sp.material);
+        if (sp.material >= 0 && m < lambertian_.size() && lambertian_[m]) {
+            // What get_bsdf would give, re-framed on sp.n as below.
+            DiffuseBxdf b;
+            b.reflectance = *lambertian_[m];
+            const Bsdf shading(Frame::from_z(sp.n), Bxdf(b));
+            local = local_shading(sp, &shading, nullptr, &bits, nullptr);
+        } else if (std::optional<Bsdf> bsdf = material_bsdf(sp, nullptr)) {
             Bsdf shading(Frame::from_z(sp.n), bsdf->bxdf());
             local = local_shading(sp, &shading, nullptr, &bits, nullptr);
         } else {

@@ -26,9 +26,11 @@ class FixedSampler final : public PixelSampler {
     void begin_frame(const SampleSource &source) override {
         width_ = source.width();
         height_ = source.height();
-        color_.assign(size_t(width_) * height_, Rgb(0.f));
-        rays_.assign(size_t(width_) * height_, 0.f);
-        nan_.assign(size_t(width_) * height_, 0);
+        // Sized, not cleared: every tile writes all its pixels (a cancelled frame, which the
+        // real-time loop discards, may keep old values where no tile ran).
+        color_.resize(size_t(width_) * height_, Rgb(0.f));
+        rays_.resize(size_t(width_) * height_, 0.f);
+        nan_.resize(size_t(width_) * height_, 0);
         shadow_.reset();
     }
     /// Only radiance: no attribute vector.
@@ -37,45 +39,64 @@ class FixedSampler final : public PixelSampler {
     std::string stage_name(int) const override { return "sample"; }
 
     void run_tile(int, const PixelRect &tile, const SampleSource &source) override {
+        // The tile's samples go to the source in batches of up to 64, across pixels (a pixel's
+        // samples in order, pixels in row order), so that one sample per pixel is traced in
+        // packets as well (the Whitted integrator's rtcIntersect8). Each pixel's sum is the
+        // same whatever the batching: its samples are added in sample order.
         constexpr size_t kBatch = 64;
-        std::vector<CameraSample> cs;
-        std::vector<Sample> out;
-        cs.reserve(kBatch);
+        thread_local std::vector<CameraSample> cs;
+        thread_local std::vector<Sample> out;
+        struct Acc {
+            Rgb sum{0.f};
+            uint32_t rays = 0, nan = 0, good = 0;
+        };
+        const uint32_t tw = tile.x1 - tile.x0;
+        thread_local std::vector<Acc> acc;
+        acc.assign(size_t(tw) * (tile.y1 - tile.y0), Acc{});
+        cs.clear();
+        auto flush = [&] {
+            if (cs.empty()) return;
+            out.resize(cs.size());
+            source.evaluate_batch(cs, out);
+            shadow_.add(out);
+            for (size_t k = 0; k < cs.size(); ++k) {
+                Acc &a = acc[size_t(cs[k].py - tile.y0) * tw + (cs[k].px - tile.x0)];
+                const Sample &smp = out[k];
+                a.rays += smp.rays;
+                if (!std::isfinite(smp.radiance.r) || !std::isfinite(smp.radiance.g) ||
+                    !std::isfinite(smp.radiance.b)) {
+                    ++a.nan;
+                    continue;
+                }
+                a.sum += smp.radiance;
+                ++a.good;
+            }
+            cs.clear();
+        };
+        for (uint32_t y = tile.y0; y < tile.y1; ++y)
+            for (uint32_t x = tile.x0; x < tile.x1; ++x)
+                for (uint32_t i = 0; i < spp_; ++i) {
+                    cs.push_back(camera_sample(x, y, i));
+                    if (cs.size() == kBatch) flush();
+                }
+        flush();
         for (uint32_t y = tile.y0; y < tile.y1; ++y)
             for (uint32_t x = tile.x0; x < tile.x1; ++x) {
-                Rgb sum(0.f);
-                uint32_t rays = 0, nan = 0, good = 0;
-                for (uint32_t i0 = 0; i0 < spp_; i0 += kBatch) {
-                    uint32_t n = std::min<uint32_t>(kBatch, spp_ - i0);
-                    cs.resize(n);
-                    out.resize(n);
-                    for (uint32_t k = 0; k < n; ++k) cs[k] = camera_sample(x, y, i0 + k);
-                    source.evaluate_batch(cs, out);
-                    shadow_.add(out);
-                    for (const Sample &s : out) {
-                        rays += s.rays;
-                        if (!std::isfinite(s.radiance.r) || !std::isfinite(s.radiance.g) ||
-                            !std::isfinite(s.radiance.b)) {
-                            ++nan;
-                            continue;
-                        }
-                        sum += s.radiance;
-                        ++good;
-                    }
-                }
-                size_t idx = size_t(y) * width_ + x;
-                color_[idx] = good ? sum / float(good) : Rgb(0.f);
-                rays_[idx] = float(rays);
-                nan_[idx] = nan;
+                const Acc &a = acc[size_t(y - tile.y0) * tw + (x - tile.x0)];
+                const size_t idx = size_t(y) * width_ + x;
+                color_[idx] = a.good ? a.sum / float(a.good) : Rgb(0.f);
+                rays_[idx] = float(a.rays);
+                nan_[idx] = a.nan;
             }
     }
 
     void end_frame(FrameResult &r) override {
-        r.reset(width_, height_);
-        r.color = color_;
-        r.rays = rays_;
         double rays = 0;
         for (float v : rays_) rays += v;
+        // Swap, not copy: the result's old buffers come back sized for the next frame.
+        r.reset(width_, height_, /*zero=*/false);
+        r.color.swap(color_);
+        r.rays.swap(rays_);
         for (uint32_t v : nan_) r.nan_samples += v;
         r.samples = uint64_t(spp_) * width_ * height_;
         r.rays_total = uint64_t(rays);

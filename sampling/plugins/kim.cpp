@@ -591,6 +591,7 @@ class KimSampler final : public PixelSampler {
         const uint32_t s = st.level, period = 2 * s;
         const bool rows = st.kind == StageDesc::Kind::Rows;
         const uint8_t cls = rows ? 1 : 2;
+        prefetch_blocks(x0, y0, x1, y1);
         std::vector<Coord> &coords = scratch().coords;
         coords.clear();
         // Rows (A1): y = 0 (mod 2s), x = s (mod 2s). Columns (A2): y = s (mod 2s), x = 0 (mod s).
@@ -660,6 +661,25 @@ class KimSampler final : public PixelSampler {
         pts_[i].pc = changed ? 2 : 1;
         if (changed)
             mark_seed(i);
+    }
+
+    /// Asks for the lattice blocks under [x0, x1) x [y0, y1) (attribute vectors and point
+    /// records) all at once. A block is a few KB at its own address, so the hardware prefetcher,
+    /// which stops at page boundaries, would otherwise leave each tile to fetch its points one
+    /// demand miss at a time between calls to shade().
+    void prefetch_blocks(uint32_t x0, uint32_t y0, uint32_t x1, uint32_t y1) const {
+        if (x1 <= x0 || y1 <= y0) return;
+        const size_t per_block = size_t(1) << (2 * block_shift_);
+        for (uint32_t by = y0 >> block_shift_; by <= (y1 - 1) >> block_shift_; ++by)
+            for (uint32_t bx = x0 >> block_shift_; bx <= (x1 - 1) >> block_shift_; ++bx) {
+                const size_t first = (size_t(by) * blocks_x_ + bx) * per_block;
+                const char *a = reinterpret_cast<const char *>(attr_.data() + first);
+                const char *p = reinterpret_cast<const char *>(pts_.data() + first);
+                for (size_t off = 0; off < per_block * sizeof(Attr); off += 64)
+                    __builtin_prefetch(a + off);
+                for (size_t off = 0; off < per_block * sizeof(Point); off += 64)
+                    __builtin_prefetch(p + off);
+            }
     }
 
     /// Notes that the block of point i (an index from at()) holds a seed of post-correction.

@@ -537,6 +537,41 @@ TEST_CASE("whitted: shade(first_hit) reproduces evaluate's radiance at every pix
     CHECK(specular > 100);
 }
 
+TEST_CASE("whitted: shade() of constant Lambertian materials is bit-identical without get_bsdf") {
+    // The kitchen sink mixes constant diffuse, textured diffuse, metal and glass: the fast path
+    // covers only the first, and every shade() must equal the general path's bit for bit,
+    // including on interpolated (averaged) attribute vectors.
+    auto scene = scene_from_string(kKitchenSink);
+    WhittedOptions general;
+    general.lambertian = false;
+    WhittedIntegrator fast(*scene), slow(*scene, general);
+    int checked = 0, lambert_hits = 0;
+    for (uint32_t py = 0; py < 24; ++py)
+        for (uint32_t px = 0; px < 24; ++px) {
+            Sample a = fast.evaluate(sample_at(px, py, 0.5f, 0.5f));
+            Sample b = fast.evaluate(sample_at(px, py, 0.1f, 0.8f));
+            REQUIRE(a.first_hit);
+            REQUIRE(b.first_hit);
+            HitAttributes mid = *a.first_hit;
+            if (a.first_hit->primary.object_id == b.first_hit->primary.object_id) {
+                const SurfaceAttributes &p = a.first_hit->primary, &q = b.first_hit->primary;
+                mid.primary.position = (p.position + q.position) * 0.5f;
+                mid.primary.normal = normalize(p.normal + q.normal);
+                mid.primary.uv = (p.uv + q.uv) * 0.5f;
+            }
+            for (const HitAttributes *h : {&*a.first_hit, &*b.first_hit, &mid}) {
+                CHECK(same_bits(fast.shade(*h), slow.shade(*h)));
+                ++checked;
+                const int32_t m = h->primary.hit()
+                                      ? scene->geometry->object_material(h->primary.object_id)
+                                      : -1;
+                if (m >= 0 && scene->materials[size_t(m)]->constant_lambertian()) ++lambert_hits;
+            }
+        }
+    CHECK(checked == 3 * 24 * 24);
+    CHECK(lambert_hits > 300);  // the fast path really ran
+}
+
 TEST_CASE("whitted: shading the average of two neighbours on a plane equals the midpoint") {
     // Orthographic view of a flat floor with a reflectance linear in u, under a distant light:
     // hit points, uv and radiance are affine in the film position.
