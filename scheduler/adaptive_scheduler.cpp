@@ -81,6 +81,7 @@ class AdaptiveProgress {
         }
     }
     void set_error(double e) { error_.store(e, std::memory_order_relaxed); }
+    void set_target(double t) { target_.store(t, std::memory_order_relaxed); }
     void finish() {
         if (!enabled_)
             return;
@@ -95,7 +96,7 @@ class AdaptiveProgress {
         uint64_t done = samples_.load(std::memory_order_relaxed);
         st.mean_spp = pixels_ ? double(initial_samples_ + done) / double(pixels_) : 0.0;
         st.error = error_.load(std::memory_order_relaxed);
-        st.error_target = options_.error_target;
+        st.error_target = target_.load(std::memory_order_relaxed);
         st.elapsed_s = seconds_since(start_);
         if (st.elapsed_s > 0)
             st.rays_per_s = double(rays_.load(std::memory_order_relaxed)) / st.elapsed_s;
@@ -144,6 +145,7 @@ class AdaptiveProgress {
     std::atomic<uint64_t> samples_{0}, rays_{0};
     std::atomic<uint32_t> passes_{0};
     std::atomic<double> error_{-1.0};
+    std::atomic<double> target_{options_.error_target};
     std::atomic<int64_t> next_draw_ns_{0};
     std::mutex draw_mutex_;
     size_t last_line_length_ = 0;
@@ -192,6 +194,13 @@ struct AdaptiveScheduler::RenderContext {
     std::atomic<uint64_t> next_work{0};
     std::atomic<bool> stop{false}, stop_cancel{false}, stop_time{false}, converged{false};
     std::atomic<uint32_t> open_mask{0};  // bit q: quadrant q's tree incomplete
+    // Refinement level (AdaptiveOptions::refine_target): the target is target_at(level). The
+    // level, and open_mask whenever refinement is on, change only under level_mutex, so a
+    // rebuild's "every quadrant complete" and the lowering it triggers are one step.
+    std::mutex level_mutex;
+    uint32_t level = 0;
+    uint32_t refinements = 0;    // levels added in this call (guarded by level_mutex)
+    uint32_t nonempty_mask = 0;  // bit q: quadrant q has pixels
     std::unique_ptr<AdaptiveProgress> progress;
     std::mutex merge_mutex;
     AdaptiveStats totals;  // per-worker sums merged under merge_mutex
@@ -305,6 +314,15 @@ uint64_t first_target(const AdaptiveOptions &o) {
     return std::clamp<uint64_t>(std::max(o.min_spp, 1u), 1, spp_cap(o));
 }
 
+// The next target of a pixel with `count` samples by the pass rule (see pass_target): the
+// first pass's target from 0, then doubling up to max_pass_spp, then steps of max_pass_spp.
+uint32_t grown_target(const AdaptiveOptions &o, uint32_t count) {
+    if (count == 0)
+        return uint32_t(first_target(o));
+    const uint64_t c = count, step = o.max_pass_spp ? std::min<uint64_t>(c, o.max_pass_spp) : c;
+    return uint32_t(std::min(spp_cap(o), c + step));
+}
+
 }  // namespace
 
 uint32_t AdaptiveScheduler::pass_target(const AdaptiveOptions &o, uint64_t pass) {
@@ -356,6 +374,11 @@ AdaptiveScheduler::AdaptiveScheduler(const SampleSource &source, sampling::Film 
     if (film.width() != source.width() || film.height() != source.height())
         throw std::invalid_argument("AdaptiveScheduler: film and sample source sizes differ");
     adaptive_ = options_.adaptive && options_.error_target > 0;
+    if (adaptive_ && options_.refine_target &&
+        !(options_.refine_factor > 0 && options_.refine_factor < 1))
+        throw std::invalid_argument("AdaptiveScheduler: refine_factor must lie in (0, 1)");
+    // Without a budget that ends the render, refinement would never stop.
+    refine_ = adaptive_ && options_.refine_target && (options_.time_s > 0 || options_.max_spp > 0);
     if (options_.max_spp == 0 && !(options_.time_s > 0) && !adaptive_)
         throw std::invalid_argument(
             "AdaptiveScheduler: max_spp 0 needs a time budget or an error target");
@@ -406,6 +429,14 @@ AdaptiveScheduler::AdaptiveScheduler(const SampleSource &source, sampling::Film 
 
 AdaptiveScheduler::~AdaptiveScheduler() = default;
 
+double AdaptiveScheduler::target_at(uint32_t level) const {
+    // Repeated multiplication, not pow(): the same bits on every platform and thread.
+    double t = options_.error_target;
+    for (uint32_t i = 0; i < level; ++i)
+        t *= options_.refine_factor;
+    return t;
+}
+
 const sampling::RegionTree &AdaptiveScheduler::tree(int quadrant) const {
     return quadrants_.at(size_t(quadrant))->live();
 }
@@ -423,7 +454,7 @@ std::string AdaptiveScheduler::describe() const {
     os << ", " << threads_ << " threads, " << (adaptive_ ? "adaptive" : "uniform")
        << (options_.deterministic ? " deterministic" : " barrier-free") << ", spp "
        << options_.min_spp << ".." << options_.max_spp << ", target " << options_.error_target
-       << ", seed " << options_.seed << ")";
+       << (refine_ ? " (refined)" : "") << ", seed " << options_.seed << ")";
     return os.str();
 }
 
@@ -524,8 +555,14 @@ void AdaptiveScheduler::process_tile(size_t t, uint32_t pass, RenderContext &ctx
             continue;
         }
         any_active = true;
+        // Refining, a pixel grows from its own count by the pass rule (16, 32, 64, +64, ...)
+        // instead of jumping to the pass's target: a region reopened after sitting out many
+        // passes (the pass index runs fast while every tile is skipped) would otherwise take
+        // thousands of samples at once, far beyond what the lowered target asks for.
+        const uint32_t pixel_target =
+            refine_ ? std::min(target, grown_target(options_, first)) : target;
         // The film's count is the pixel's next index: each pixel continues its own sequence.
-        for (uint32_t index = first; index < target; ++index) {
+        for (uint32_t index = first; index < pixel_target; ++index) {
             CameraSample cs = camera_sample(options_.seed, px, py, index);
             Sample s = source_.evaluate(cs);
             rays += s.rays;
@@ -533,8 +570,8 @@ void AdaptiveScheduler::process_tile(size_t t, uint32_t pass, RenderContext &ctx
             ++samples;
             film_.add_sample(px, py, index, s);
         }
-        ws.after[i] = std::max(first, target);
-        if (adaptive_ && target > first) {
+        ws.after[i] = std::max(first, pixel_target);
+        if (adaptive_ && pixel_target > first) {
             error_snapshot_[size_t(py) * film_.width() + px].store(
                 sampling::pixel_error(film_.pixel_stats(px, py), options_.min_samples_for_error),
                 std::memory_order_relaxed);
@@ -571,11 +608,18 @@ void AdaptiveScheduler::process_tile(size_t t, uint32_t pass, RenderContext &ctx
     done.notify_all();
 }
 
-void AdaptiveScheduler::rebuild_quadrant(int q, RenderContext &ctx, WorkerState &ws) {
+bool AdaptiveScheduler::rebuild_quadrant(int q, RenderContext &ctx, WorkerState &ws) {
     Quadrant &quad = *quadrants_[size_t(q)];
     if (quad.rect.empty())
-        return;
+        return false;
     auto t0 = Clock::now();
+    // The level this rebuild builds for (a per-rebuild snapshot: another quadrant's rebuild may
+    // lower the target meanwhile; see the end).
+    uint32_t level = 0;
+    if (refine_) {
+        std::lock_guard<std::mutex> lock(ctx.level_mutex);
+        level = ctx.level;
+    }
     // Gather the per-tile error sums of the grown rectangle (tile aligned at its top-left
     // corner; its right and bottom edge are tile boundaries or the image edge); sum the
     // quadrant's own tiles for the progress estimate.
@@ -606,7 +650,7 @@ void AdaptiveScheduler::rebuild_quadrant(int q, RenderContext &ctx, WorkerState 
             }
         }
     sampling::RegionTreeParams params;
-    params.target = options_.error_target;
+    params.target = refine_ ? target_at(level) : options_.error_target;
     params.split_factor = options_.split_factor;
     params.min_extent = options_.min_extent;
     // Build into the idle copy, publish it, then take each stripe's writer lock in turn: once
@@ -617,16 +661,42 @@ void AdaptiveScheduler::rebuild_quadrant(int q, RenderContext &ctx, WorkerState 
     const uint32_t idle = 1u - quad.active.load(std::memory_order_relaxed);
     sampling::RegionTree &next = quad.trees[idle];
     next.rebuild_cells(cells, params);
-    const bool complete = next.complete();
+    // Refining: complete means "no open leaf over the quadrant's own pixels". An open leaf
+    // only in the one-tile margin belongs to a neighbour, which may find its own, differently
+    // cut region there complete; waiting for it would stall every refinement.
+    const bool complete = refine_ ? next.open_area() <= 0.0 : next.complete();
     quad.active.store(idle, std::memory_order_release);
     ws.writer_wait_s += quad.locks.sweep();
 
     quad.error_sum.store(sum, std::memory_order_relaxed);
     quad.unknown_pixels.store(unknown, std::memory_order_relaxed);
-    if (complete)
-        ctx.open_mask.fetch_and(~(1u << q), std::memory_order_relaxed);
-    else
-        ctx.open_mask.fetch_or(1u << q, std::memory_order_relaxed);
+    bool refined = false;
+    if (!refine_) {
+        if (complete)
+            ctx.open_mask.fetch_and(~(1u << q), std::memory_order_relaxed);
+        else
+            ctx.open_mask.fetch_or(1u << q, std::memory_order_relaxed);
+    } else {
+        std::lock_guard<std::mutex> lock(ctx.level_mutex);
+        // A tree built for an older level says nothing about the current target: the quadrant
+        // stays open until its next rebuild.
+        if (complete && level == ctx.level)
+            ctx.open_mask.fetch_and(~(1u << q), std::memory_order_relaxed);
+        else
+            ctx.open_mask.fetch_or(1u << q, std::memory_order_relaxed);
+        if (ctx.open_mask.load(std::memory_order_relaxed) == 0 &&
+            target_at(ctx.level + 1) >= options_.refine_min_target) {
+            // Every quadrant is complete at the current target and the budget is not spent:
+            // lower the target and reopen every quadrant until it is rebuilt against it.
+            ++ctx.level;
+            ++ctx.refinements;
+            ctx.open_mask.store(ctx.nonempty_mask, std::memory_order_relaxed);
+            if (ctx.progress)
+                ctx.progress->set_target(target_at(ctx.level));
+            refined = true;
+        }
+        // Otherwise a zero mask means converged at the floor target: the caller stops.
+    }
     const double s = seconds_since(t0);
     ws.rebuild_s += s;
     ++quad.rebuilds;
@@ -642,6 +712,19 @@ void AdaptiveScheduler::rebuild_quadrant(int q, RenderContext &ctx, WorkerState 
         }
         ctx.progress->set_error(known ? total / (double(w) * double(h))
                                       : std::numeric_limits<double>::infinity());
+    }
+    return refined;
+}
+
+void AdaptiveScheduler::rebuild_all(RenderContext &ctx, WorkerState &ws) {
+    // In order, on one thread: the result depends on the film only (deterministic mode). A
+    // rebuild that lowered the target leaves the quadrants before it built for the old one:
+    // rebuild all four again (each round lowers the target once; refine_min_target bounds it).
+    bool refined = true;
+    while (refined) {
+        refined = false;
+        for (int q = 0; q < 4; ++q)
+            refined = rebuild_quadrant(q, ctx, ws) || refined;
     }
 }
 
@@ -676,7 +759,11 @@ void AdaptiveScheduler::finish_tile_nonbarrier(size_t t, RenderContext &ctx, Wor
             // Uncontended: only the combining thread takes it.
             ws.writer_wait_s += lock_timed(quad.rebuild_mutex);
             std::lock_guard<std::mutex> lock(quad.rebuild_mutex, std::adopt_lock);
-            rebuild_quadrant(q, ctx, ws);
+            // A rebuild that lowered the target rebuilds this quadrant at once against the new
+            // one; the other quadrants follow at the end of their current pass (their tiles are
+            // skipped meanwhile, which costs little).
+            while (rebuild_quadrant(q, ctx, ws)) {
+            }
             if (ctx.open_mask.load(std::memory_order_relaxed) == 0) {
                 ctx.converged.store(true, std::memory_order_relaxed);
                 ctx.stop.store(true, std::memory_order_relaxed);
@@ -755,6 +842,10 @@ AdaptiveStats AdaptiveScheduler::render(const std::atomic<bool> *cancel) {
         for (uint32_t x = 0; x < w; ++x)
             min_taken = std::min(min_taken, film_.sample_count(x, y));
     uint64_t n_passes = pass_count(options_);
+    // Refining, pixels grow from their own counts (process_tile): one reopened in the last pass
+    // needs up to pass_count more passes to reach max_spp. Bounded, so an spp budget still ends.
+    if (refine_ && options_.max_spp > 0)
+        n_passes *= 2;
     if (options_.max_passes > 0) n_passes = std::min<uint64_t>(n_passes, options_.max_passes);
     uint64_t p0 = 0;
     if (options_.start_pass >= 0) {
@@ -793,6 +884,7 @@ AdaptiveStats AdaptiveScheduler::render(const std::atomic<bool> *cancel) {
                 open |= 1u << q;
         }
         ctx.open_mask.store(open);
+        ctx.nonempty_mask = open;
         if (adaptive_) {
             // Allocate and touch every rebuild buffer now (both tree copies' summed-area tables
             // and the error image), so that page faults do not land inside the timed,
@@ -817,8 +909,7 @@ AdaptiveStats AdaptiveScheduler::render(const std::atomic<bool> *cancel) {
             init_error_snapshot();
             // Resuming past the uniform start: the trees come from the film's samples.
             if (p0 > 0) {
-                for (int q = 0; q < 4; ++q)
-                    rebuild_quadrant(q, ctx, main_ws);
+                rebuild_all(ctx, main_ws);
                 if (ctx.open_mask.load() == 0)
                     ctx.converged = ctx.stop = true;
             }
@@ -872,8 +963,7 @@ AdaptiveStats AdaptiveScheduler::render(const std::atomic<bool> *cancel) {
                 ++stats.passes;
                 ctx.progress->set_passes(uint32_t(pass + 1));
                 if (adaptive_) {
-                    for (int q = 0; q < 4; ++q)
-                        rebuild_quadrant(q, ctx, main_ws);
+                    rebuild_all(ctx, main_ws);
                     if (ctx.open_mask.load() == 0)
                         ctx.converged = ctx.stop = true;
                 }
@@ -916,6 +1006,8 @@ AdaptiveStats AdaptiveScheduler::render(const std::atomic<bool> *cancel) {
     stats.cancelled = ctx.stop_cancel.load();
     stats.out_of_time = ctx.stop_time.load();
     stats.converged = ctx.converged.load();
+    stats.refinements = ctx.refinements;
+    stats.final_error_target = refine_ ? target_at(ctx.level) : options_.error_target;
     stats.nan_samples = film_.nan_count() - nan_before;
     stats.error_estimate = sampling::image_error(film_, options_.min_samples_for_error);
     stats.spp_histogram.assign(1, 0);
