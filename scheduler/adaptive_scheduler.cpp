@@ -184,6 +184,8 @@ struct AdaptiveScheduler::Quadrant {
     std::atomic<uint64_t> unknown_pixels{0};    // pixels of `rect` without an estimate
     std::atomic<uint32_t> passes_done{0};       // passes of this quadrant completed (this render)
     std::atomic<uint32_t> rebuild_requests{0};  // see finish_tile_nonbarrier
+    // Refining: samples its tiles took since the last pass end (a pass with none is "idle").
+    std::atomic<uint64_t> pass_samples{0};
 };
 
 struct AdaptiveScheduler::RenderContext {
@@ -201,6 +203,22 @@ struct AdaptiveScheduler::RenderContext {
     uint32_t level = 0;
     uint32_t refinements = 0;    // levels added in this call (guarded by level_mutex)
     uint32_t nonempty_mask = 0;  // bit q: quadrant q has pixels
+    // Refining: per-pixel sample cap of the current level (AdaptiveOptions::refine_spp_ratio;
+    // 0: none), and samples in the film (for the image mean the cap follows).
+    std::atomic<uint32_t> pixel_cap{0};
+    std::atomic<uint64_t> film_samples{0};
+    uint64_t pixels = 1;
+    // The cap for the film's current mean: ratio x max(min_spp, mean spp), never lower than
+    // before, at most max_spp. Called under level_mutex or with no worker running.
+    void raise_cap(const AdaptiveOptions &o) {
+        if (!(o.refine_spp_ratio > 0))
+            return;
+        const double mean = double(film_samples.load(std::memory_order_relaxed)) / double(pixels);
+        double cap = o.refine_spp_ratio * std::max(double(std::max(o.min_spp, 1u)), mean);
+        cap = std::min(cap, o.max_spp ? double(o.max_spp) : 4e9);
+        pixel_cap.store(std::max(pixel_cap.load(std::memory_order_relaxed), uint32_t(cap)),
+                        std::memory_order_relaxed);
+    }
     std::unique_ptr<AdaptiveProgress> progress;
     std::mutex merge_mutex;
     AdaptiveStats totals;  // per-worker sums merged under merge_mutex
@@ -514,6 +532,7 @@ void AdaptiveScheduler::process_tile(size_t t, uint32_t pass, RenderContext &ctx
 
     auto t0 = Clock::now();
     const uint32_t target = pass_target(options_, pass);
+    const uint32_t pixel_cap = refine_ ? ctx.pixel_cap.load(std::memory_order_relaxed) : 0;
     const uint32_t tw = tile.width(), n = tile.pixel_count();
     std::fill_n(ws.active.begin(), n, uint8_t(1));
     if (adaptive_ && pass > 0) {
@@ -559,8 +578,15 @@ void AdaptiveScheduler::process_tile(size_t t, uint32_t pass, RenderContext &ctx
         // instead of jumping to the pass's target: a region reopened after sitting out many
         // passes (the pass index runs fast while every tile is skipped) would otherwise take
         // thousands of samples at once, far beyond what the lowered target asks for.
-        const uint32_t pixel_target =
-            refine_ ? std::min(target, grown_target(options_, first)) : target;
+        // Also at most the level's cap (AdaptiveOptions::refine_spp_ratio): a pixel whose
+        // region cannot get below the target (a firefly, a leaf sharing a tile with frozen
+        // errors) would otherwise take every sample of the budget.
+        uint32_t pixel_target = target;
+        if (refine_) {
+            pixel_target = std::min(target, grown_target(options_, first));
+            if (pixel_cap > 0)
+                pixel_target = std::min(pixel_target, std::max(first, pixel_cap));
+        }
         // The film's count is the pixel's next index: each pixel continues its own sequence.
         for (uint32_t index = first; index < pixel_target; ++index) {
             CameraSample cs = camera_sample(options_.seed, px, py, index);
@@ -590,6 +616,10 @@ void AdaptiveScheduler::process_tile(size_t t, uint32_t pass, RenderContext &ctx
     ws.render_s += seconds_since(t0);
     if (ctx.progress)
         ctx.progress->add(samples, rays);
+    if (refine_ && samples) {
+        quad.pass_samples.fetch_add(samples, std::memory_order_relaxed);
+        ctx.film_samples.fetch_add(samples, std::memory_order_relaxed);
+    }
 
     if (options_.visit_hook) {
         TileVisit v;
@@ -608,7 +638,8 @@ void AdaptiveScheduler::process_tile(size_t t, uint32_t pass, RenderContext &ctx
     done.notify_all();
 }
 
-bool AdaptiveScheduler::rebuild_quadrant(int q, RenderContext &ctx, WorkerState &ws) {
+bool AdaptiveScheduler::rebuild_quadrant(int q, RenderContext &ctx, WorkerState &ws,
+                                         bool pass_idle) {
     Quadrant &quad = *quadrants_[size_t(q)];
     if (quad.rect.empty())
         return false;
@@ -664,7 +695,9 @@ bool AdaptiveScheduler::rebuild_quadrant(int q, RenderContext &ctx, WorkerState 
     // Refining: complete means "no open leaf over the quadrant's own pixels". An open leaf
     // only in the one-tile margin belongs to a neighbour, which may find its own, differently
     // cut region there complete; waiting for it would stall every refinement.
-    const bool complete = refine_ ? next.open_area() <= 0.0 : next.complete();
+    // A pass that took no sample (every open pixel at the level's cap) counts as complete too:
+    // nothing more can happen at this level.
+    const bool complete = refine_ ? next.open_area() <= 0.0 || pass_idle : next.complete();
     quad.active.store(idle, std::memory_order_release);
     ws.writer_wait_s += quad.locks.sweep();
 
@@ -679,23 +712,23 @@ bool AdaptiveScheduler::rebuild_quadrant(int q, RenderContext &ctx, WorkerState 
     } else {
         std::lock_guard<std::mutex> lock(ctx.level_mutex);
         // A tree built for an older level says nothing about the current target: the quadrant
-        // stays open until its next rebuild.
-        if (complete && level == ctx.level)
-            ctx.open_mask.fetch_and(~(1u << q), std::memory_order_relaxed);
-        else
-            ctx.open_mask.fetch_or(1u << q, std::memory_order_relaxed);
-        if (ctx.open_mask.load(std::memory_order_relaxed) == 0 &&
-            target_at(ctx.level + 1) >= options_.refine_min_target) {
+        // stays open until its next rebuild. The new mask is stored once: other threads read
+        // it without the mutex, and a transient zero would stop the render.
+        uint32_t mask = ctx.open_mask.load(std::memory_order_relaxed);
+        mask = complete && level == ctx.level ? mask & ~(1u << q) : mask | (1u << q);
+        if (mask == 0 && target_at(ctx.level + 1) >= options_.refine_min_target) {
             // Every quadrant is complete at the current target and the budget is not spent:
             // lower the target and reopen every quadrant until it is rebuilt against it.
             ++ctx.level;
             ++ctx.refinements;
-            ctx.open_mask.store(ctx.nonempty_mask, std::memory_order_relaxed);
+            ctx.raise_cap(options_);
+            mask = ctx.nonempty_mask;
             if (ctx.progress)
                 ctx.progress->set_target(target_at(ctx.level));
             refined = true;
         }
         // Otherwise a zero mask means converged at the floor target: the caller stops.
+        ctx.open_mask.store(mask, std::memory_order_relaxed);
     }
     const double s = seconds_since(t0);
     ws.rebuild_s += s;
@@ -716,15 +749,20 @@ bool AdaptiveScheduler::rebuild_quadrant(int q, RenderContext &ctx, WorkerState 
     return refined;
 }
 
-void AdaptiveScheduler::rebuild_all(RenderContext &ctx, WorkerState &ws) {
+void AdaptiveScheduler::rebuild_all(RenderContext &ctx, WorkerState &ws, bool pass_end) {
     // In order, on one thread: the result depends on the film only (deterministic mode). A
     // rebuild that lowered the target leaves the quadrants before it built for the old one:
     // rebuild all four again (each round lowers the target once; refine_min_target bounds it).
     bool refined = true;
     while (refined) {
         refined = false;
-        for (int q = 0; q < 4; ++q)
-            refined = rebuild_quadrant(q, ctx, ws) || refined;
+        for (int q = 0; q < 4; ++q) {
+            // The pass's samples count once: a rebuild after a refinement (raised cap) is not idle.
+            const uint64_t taken =
+                refine_ ? quadrants_[size_t(q)]->pass_samples.exchange(0) : uint64_t(1);
+            refined = rebuild_quadrant(q, ctx, ws, pass_end && taken == 0) || refined;
+        }
+        pass_end = false;
     }
 }
 
@@ -762,8 +800,10 @@ void AdaptiveScheduler::finish_tile_nonbarrier(size_t t, RenderContext &ctx, Wor
             // A rebuild that lowered the target rebuilds this quadrant at once against the new
             // one; the other quadrants follow at the end of their current pass (their tiles are
             // skipped meanwhile, which costs little).
-            while (rebuild_quadrant(q, ctx, ws)) {
-            }
+            const bool idle = refine_ && quad.pass_samples.exchange(0) == 0;
+            if (rebuild_quadrant(q, ctx, ws, idle))
+                while (rebuild_quadrant(q, ctx, ws, false)) {
+                }
             if (ctx.open_mask.load(std::memory_order_relaxed) == 0) {
                 ctx.converged.store(true, std::memory_order_relaxed);
                 ctx.stop.store(true, std::memory_order_relaxed);
@@ -885,6 +925,12 @@ AdaptiveStats AdaptiveScheduler::render(const std::atomic<bool> *cancel) {
         }
         ctx.open_mask.store(open);
         ctx.nonempty_mask = open;
+        ctx.pixels = std::max<uint64_t>(1, pixels);
+        ctx.film_samples.store(film_.total_samples());
+        for (int q = 0; q < 4; ++q)
+            quadrants_[size_t(q)]->pass_samples.store(0);
+        if (refine_)
+            ctx.raise_cap(options_);
         if (adaptive_) {
             // Allocate and touch every rebuild buffer now (both tree copies' summed-area tables
             // and the error image), so that page faults do not land inside the timed,
@@ -909,7 +955,7 @@ AdaptiveStats AdaptiveScheduler::render(const std::atomic<bool> *cancel) {
             init_error_snapshot();
             // Resuming past the uniform start: the trees come from the film's samples.
             if (p0 > 0) {
-                rebuild_all(ctx, main_ws);
+                rebuild_all(ctx, main_ws, false);
                 if (ctx.open_mask.load() == 0)
                     ctx.converged = ctx.stop = true;
             }
@@ -963,7 +1009,7 @@ AdaptiveStats AdaptiveScheduler::render(const std::atomic<bool> *cancel) {
                 ++stats.passes;
                 ctx.progress->set_passes(uint32_t(pass + 1));
                 if (adaptive_) {
-                    rebuild_all(ctx, main_ws);
+                    rebuild_all(ctx, main_ws, true);
                     if (ctx.open_mask.load() == 0)
                         ctx.converged = ctx.stop = true;
                 }

@@ -124,6 +124,12 @@ struct AdaptiveOptions {
     double refine_factor = 0.5;
     /// No refinement below this target: the render then stops as converged.
     double refine_min_target = 1e-7;
+    /// Refining, no pixel takes more than this many times the image's mean samples per pixel
+    /// (at least min_spp), as of the last refinement; a quadrant whose pass took no sample
+    /// (every open pixel capped) counts as complete. Keeps a region that cannot reach the
+    /// target (fireflies; a narrow leaf in a tile of frozen errors) from taking the whole
+    /// budget. 0: no cap.
+    double refine_spp_ratio = 16;
     bool adaptive = true;        ///< false: uniform passes (every pixel active)
     bool deterministic = false;  ///< barrier between passes: bit-identical for any thread count
     uint32_t threads = 0;        ///< worker threads (0: TBB's default concurrency)
@@ -282,10 +288,12 @@ class AdaptiveScheduler {
     void finish_tile_nonbarrier(size_t t, RenderContext &ctx, WorkerState &ws);
     /// Rebuilds quadrant q's tree against the current target level; returns true when this
     /// rebuild completed the image and lowered the target (the caller rebuilds again).
-    bool rebuild_quadrant(int q, RenderContext &ctx, WorkerState &ws);
+    /// `pass_idle`: the quadrant's pass just ended without taking a sample (refining).
+    bool rebuild_quadrant(int q, RenderContext &ctx, WorkerState &ws, bool pass_idle = false);
     /// Rebuilds all four quadrants in order on the calling thread, again while that lowers the
     /// target (deterministic mode and resume).
-    void rebuild_all(RenderContext &ctx, WorkerState &ws);
+    /// `pass_end`: after a pass (its samples decide which quadrants were idle).
+    void rebuild_all(RenderContext &ctx, WorkerState &ws, bool pass_end);
     void init_error_snapshot();
 
     const SampleSource &source_;
