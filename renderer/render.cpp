@@ -102,8 +102,9 @@ std::string SamplerSpec::describe() const {
         // Only when given: checkpoints compare this line, and older ones do not have it.
         if (refine)
             os << ",refine=" << (*refine ? 1 : 0);
-        if (refine_factor != 0.5)
-            os << ",refine-factor=" << refine_factor;
+        if (refine_factor != 0.5) os << ",refine-factor=" << refine_factor;
+        if (refine_spp_ratio != 16) os << ",refine-spp-ratio=" << refine_spp_ratio;
+        if (refine_floor_ratio != 8) os << ",refine-floor-ratio=" << refine_floor_ratio;
     }
     return os.str();
 }
@@ -127,6 +128,8 @@ SamplerSpec parse_sampler_spec(const std::string &text) {
         if (p.is_set("refine"))
             spec.refine = p.get("refine") != 0;
         spec.refine_factor = p.get("refine-factor");
+        spec.refine_spp_ratio = p.get("refine-spp-ratio");
+        spec.refine_floor_ratio = p.get("refine-floor-ratio");
     }
     return spec;
 }
@@ -167,6 +170,8 @@ void apply_refinement(sched::AdaptiveOptions &o, const SamplerSpec &sampler, dou
         return;
     o.refine_target = sampler.refine.value_or(time_s > 0 && !sampler.error);
     o.refine_factor = sampler.refine_factor;
+    o.refine_spp_ratio = sampler.refine_spp_ratio;
+    o.refine_floor_ratio = sampler.refine_floor_ratio;
     if (o.refine_target && !sampler.error)
         o.error_target = kDefaultRefineStartTarget;
 }

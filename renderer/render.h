@@ -49,6 +49,8 @@ struct SamplerSpec {
     /// (see apply_refinement).
     std::optional<bool> refine;
     double refine_factor = 0.5;  ///< adaptive:refine-factor
+    double refine_spp_ratio = 16;   ///< adaptive:refine-spp-ratio
+    double refine_floor_ratio = 8;  ///< adaptive:refine-floor-ratio
     /// One line, e.g. "adaptive:error=0.002,min-spp=16".
     std::string describe() const;
 };

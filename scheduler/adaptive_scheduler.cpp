@@ -206,6 +206,9 @@ struct AdaptiveScheduler::RenderContext {
     // Refining: per-pixel sample cap of the current level (AdaptiveOptions::refine_spp_ratio;
     // 0: none), and samples in the film (for the image mean the cap follows).
     std::atomic<uint32_t> pixel_cap{0};
+    // Refining: pixels below this count are sampled even in completed regions
+    // (AdaptiveOptions::refine_floor_ratio; 0: none).
+    std::atomic<uint32_t> pixel_floor{0};
     std::atomic<uint64_t> film_samples{0};
     uint64_t pixels = 1;
     // The cap for the film's current mean: ratio x max(min_spp, mean spp), never lower than
@@ -218,6 +221,12 @@ struct AdaptiveScheduler::RenderContext {
         cap = std::min(cap, o.max_spp ? double(o.max_spp) : 4e9);
         pixel_cap.store(std::max(pixel_cap.load(std::memory_order_relaxed), uint32_t(cap)),
                         std::memory_order_relaxed);
+        if (o.refine_floor_ratio > 0) {
+            const double floor = std::min(mean / o.refine_floor_ratio, cap);
+            pixel_floor.store(std::max(pixel_floor.load(std::memory_order_relaxed),
+                                       uint32_t(floor)),
+                              std::memory_order_relaxed);
+        }
     }
     std::unique_ptr<AdaptiveProgress> progress;
     std::mutex merge_mutex;
@@ -542,7 +551,14 @@ void AdaptiveScheduler::process_tile(size_t t, uint32_t pass, RenderContext &ctx
         quad.live().active_rects(
             sampling::PixelBounds{int(tile.x0), int(tile.y0), int(tile.x1), int(tile.y1)}, ws.rects);
         quad.locks.unlock_shared(s);
-        if (ws.rects.empty() && !options_.visit_hook) {
+        // Refining: pixels below the level's floor count as active wherever they are (the
+        // tile's pixels belong to this thread now, so their counts can be read).
+        const uint32_t floor = refine_ ? ctx.pixel_floor.load(std::memory_order_relaxed) : 0;
+        bool below_floor = false;
+        if (floor > 0)
+            for (uint32_t i = 0; i < n && !below_floor; ++i)
+                below_floor = film_.sample_count(tile.x0 + i % tw, tile.y0 + i / tw) < floor;
+        if (ws.rects.empty() && !below_floor && !options_.visit_hook) {
             // The whole tile lies in converged regions: it costs the tree check above and
             // nothing else (no pixel is read or written).
             ws.pixels_skipped += n;
@@ -560,6 +576,10 @@ void AdaptiveScheduler::process_tile(size_t t, uint32_t pass, RenderContext &ctx
                 for (int x = x0; x < x1; ++x)
                     ws.active[size_t(y - int(tile.y0)) * tw + size_t(x - int(tile.x0))] = 1;
         }
+        if (below_floor)
+            for (uint32_t i = 0; i < n; ++i)
+                if (film_.sample_count(tile.x0 + i % tw, tile.y0 + i / tw) < floor)
+                    ws.active[i] = 1;
     }
 
     bool any_active = false, any_new_error = false;

@@ -130,6 +130,10 @@ struct AdaptiveOptions {
     /// target (fireflies; a narrow leaf in a tile of frozen errors) from taking the whole
     /// budget. 0: no cap.
     double refine_spp_ratio = 16;
+    /// Refining, pixels below the image's mean samples per pixel / this ratio (as of the last
+    /// refinement) are sampled even inside completed regions: the Dammertz estimate of a few
+    /// dozen samples can call a region complete that is not. 0: no floor.
+    double refine_floor_ratio = 8;
     bool adaptive = true;        ///< false: uniform passes (every pixel active)
     bool deterministic = false;  ///< barrier between passes: bit-identical for any thread count
     uint32_t threads = 0;        ///< worker threads (0: TBB's default concurrency)
