@@ -70,6 +70,11 @@
 // (16, 32, 64, then +max_pass_spp) when that is below the pass's target, so that a reopened
 // region resumes gradually; TileVisit::count_after may then be below `target`. The passes run
 // to twice pass_count when max_spp caps them, so pixels reopened late can still reach it.
+// Two guards tie the allocation to the image mean (set at the start and at each refinement):
+// no pixel takes more than refine_spp_ratio x the mean spp (a region that cannot reach the
+// target -- fireflies -- would otherwise swallow the budget; a quadrant pass that took no sample
+// counts as complete), and pixels below mean / refine_floor_ratio are sampled even inside
+// completed regions (a few dozen samples' Dammertz estimate can call a region done too early).
 #pragma once
 
 #include <array>
