@@ -66,6 +66,9 @@ class DiffuseMaterial final : public Material {
         if (!constant_) return std::nullopt;
         return constant_reflectance_;
     }
+    std::optional<Rgb> lambertian_reflectance_at(const TextureEvalContext &tc) const override {
+        return constant_ ? constant_reflectance_ : clamp_unit(reflectance_->evaluate(tc));
+    }
     std::string describe() const override { return "diffuse"; }
 
     static Rgb clamp_unit(Rgb c) {

@@ -41,6 +41,13 @@ class Material {
     std::optional<Rgb> constant_lambertian() const {
         return bumped() ? std::nullopt : lambertian_reflectance();
     }
+    /// The reflectance at `tc` when this material is a Lambertian (constant or textured) with
+    /// no bump or normal map: exactly the DiffuseBxdf reflectance get_bsdf would build for the
+    /// same context; nullopt for every other material. Lets a caller that supplies its own
+    /// shading frame (the Whitted integrator's shade()) skip get_bsdf. Thread-safe.
+    std::optional<Rgb> lambertian_at(const TextureEvalContext &tc) const {
+        return bumped() ? std::nullopt : lambertian_reflectance_at(tc);
+    }
     virtual std::string describe() const = 0;
 
     /// Sets pbrt's "displacement" texture: bump mapping of the shading normal.
@@ -53,6 +60,10 @@ class Material {
     virtual bool reads_texture() const = 0;
     /// A constant Lambertian's reflectance (bump mapping aside); nullopt for everything else.
     virtual std::optional<Rgb> lambertian_reflectance() const { return std::nullopt; }
+    /// A Lambertian's reflectance at tc (bump mapping aside); nullopt for everything else.
+    virtual std::optional<Rgb> lambertian_reflectance_at(const TextureEvalContext &) const {
+        return std::nullopt;
+    }
     bool bumped() const { return displacement_ != nullptr || normal_map_ != nullptr; }
     /// The shading frame at `si`: from the shading normal and dpdu, bump-mapped when the
     /// material has a displacement texture (pbrt-v4 BumpMap: finite differences of the

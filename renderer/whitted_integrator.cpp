@@ -572,10 +572,25 @@ Rgb WhittedIntegrator::shade(const HitAttributes &attributes) const {
         sp.wo = viewer_direction(a.position);
         uint32_t bits = a.shadow_bits;
         const size_t m = size_t(sp.material);
-        if (sp.material >= 0 && m < lambertian_.size() && lambertian_[m]) {
+        // A Lambertian without bump or normal map: its reflectance straight from the cache
+        // (constant) or from the texture, with the texture context material_bsdf would build.
+        std::optional<Rgb> lambert;
+        if (options_.lambertian && sp.material >= 0 && m < scene_.materials.size() &&
+            scene_.materials[m]) {
+            if (lambertian_[m]) {
+                lambert = lambertian_[m];
+            } else {
+                TextureEvalContext tc;
+                tc.p = sp.p;
+                tc.uv = sp.uv;
+                tc.n = sp.n;
+                lambert = scene_.materials[m]->lambertian_at(tc);
+            }
+        }
+        if (lambert) {
             // What get_bsdf would give, re-framed on sp.n as below.
             DiffuseBxdf b;
-            b.reflectance = *lambertian_[m];
+            b.reflectance = *lambert;
             const Bsdf shading(Frame::from_z(sp.n), Bxdf(b));
             local = local_shading(sp, &shading, nullptr, &bits, nullptr);
         } else if (std::optional<Bsdf> bsdf = material_bsdf(sp, nullptr)) {

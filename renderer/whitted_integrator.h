@@ -60,10 +60,11 @@ struct WhittedOptions {
     /// collected are the same as on the general path, bit for bit. false (`--no-specialize`):
     /// the general path, every group collected whatever `attributes` says.
     bool specialize = true;
-    /// true: shade() builds the BSDF of a constant Lambertian material (no bump or normal map)
-    /// from its cached reflectance instead of through Material::get_bsdf: the same BxDF, so
-    /// the same colour bit for bit, without the virtual call, the texture context and the
-    /// material's frame. false (`--no-specialize=lambertian`): always get_bsdf.
+    /// true: shade() builds the BSDF of a Lambertian material without bump or normal map from
+    /// its reflectance (cached when constant, else Material::lambertian_at) instead of through
+    /// Material::get_bsdf: the same BxDF, so the same colour bit for bit, without the
+    /// surface rebuilt for the material and the material's frame. false
+    /// (`--no-specialize=lambertian`): always get_bsdf.
     bool lambertian = true;
 };
 
@@ -172,7 +173,8 @@ class WhittedIntegrator final : public SampleSource {
     std::vector<uint8_t> textured_;    ///< per material: reads a texture
     uint32_t collected_ = kAttrAll;    ///< attribute groups filled (kAttr* bits)
     bool orthographic_ = false;
-    /// Per material: its reflectance when it is a constant Lambertian (options_.lambertian).
+    /// Per material: its reflectance when it is a constant Lambertian (sized only with
+    /// options_.lambertian).
     std::vector<std::optional<Rgb>> lambertian_;
 };
 

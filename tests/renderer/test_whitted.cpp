@@ -537,15 +537,15 @@ TEST_CASE("whitted: shade(first_hit) reproduces evaluate's radiance at every pix
     CHECK(specular > 100);
 }
 
-TEST_CASE("whitted: shade() of constant Lambertian materials is bit-identical without get_bsdf") {
+TEST_CASE("whitted: shade() of Lambertian materials is bit-identical without get_bsdf") {
     // The kitchen sink mixes constant diffuse, textured diffuse, metal and glass: the fast path
-    // covers only the first, and every shade() must equal the general path's bit for bit,
+    // covers the first two, and every shade() must equal the general path's bit for bit,
     // including on interpolated (averaged) attribute vectors.
     auto scene = scene_from_string(kKitchenSink);
     WhittedOptions general;
     general.lambertian = false;
     WhittedIntegrator fast(*scene), slow(*scene, general);
-    int checked = 0, lambert_hits = 0;
+    int checked = 0, lambert_hits = 0, textured_lambert_hits = 0;
     for (uint32_t py = 0; py < 24; ++py)
         for (uint32_t px = 0; px < 24; ++px) {
             Sample a = fast.evaluate(sample_at(px, py, 0.5f, 0.5f));
@@ -565,11 +565,20 @@ TEST_CASE("whitted: shade() of constant Lambertian materials is bit-identical wi
                 const int32_t m = h->primary.hit()
                                       ? scene->geometry->object_material(h->primary.object_id)
                                       : -1;
-                if (m >= 0 && scene->materials[size_t(m)]->constant_lambertian()) ++lambert_hits;
+                if (m < 0) continue;
+                const Material &mat = *scene->materials[size_t(m)];
+                if (mat.constant_lambertian()) ++lambert_hits;
+                TextureEvalContext tc;
+                tc.p = h->primary.position;
+                tc.uv = h->primary.uv;
+                tc.n = h->primary.normal;
+                if (!mat.constant_lambertian() && mat.lambertian_at(tc)) ++textured_lambert_hits;
             }
         }
     CHECK(checked == 3 * 24 * 24);
-    CHECK(lambert_hits > 300);  // the fast path really ran
+    // The fast path really ran, on constant and on textured diffuse materials.
+    CHECK(lambert_hits > 300);
+    CHECK(textured_lambert_hits > 50);
 }
 
 TEST_CASE("whitted: shading the average of two neighbours on a plane equals the midpoint") {
