@@ -71,9 +71,9 @@ class SamplerRun {
         options_.max_spp = opt.overrides.spp ? uint32_t(*opt.overrides.spp) : 0;
         if (options_.max_spp)
             options_.min_spp = std::min(options_.min_spp, options_.max_spp);
-        // A time budget: adaptive runs refine their target unless the spec says otherwise, so
-        // they use the whole budget ("stopped" then means the spp cap or the floor target).
-        apply_refinement(options_, spec, opt.time_s);
+        // adaptive:refine=1 runs lower their target as regions complete, so they use the whole
+        // budget ("stopped" then means the spp cap or the floor target); refinement is opt-in.
+        apply_refinement(options_, spec);
     }
 
     /// Renders until `target_s` seconds of render time in all (unless it stopped by itself),

@@ -103,8 +103,8 @@ std::string SamplerSpec::describe() const {
         if (refine)
             os << ",refine=" << (*refine ? 1 : 0);
         if (refine_factor != 0.5) os << ",refine-factor=" << refine_factor;
-        if (refine_spp_ratio != 16) os << ",refine-spp-ratio=" << refine_spp_ratio;
-        if (refine_floor_ratio != 8) os << ",refine-floor-ratio=" << refine_floor_ratio;
+        if (refine_spp_ratio != 8) os << ",refine-spp-ratio=" << refine_spp_ratio;
+        if (refine_floor_ratio != 1.5) os << ",refine-floor-ratio=" << refine_floor_ratio;
     }
     return os.str();
 }
@@ -165,10 +165,10 @@ sched::AdaptiveOptions scheduler_options(const Scene &scene, const SamplerSpec &
     return o;
 }
 
-void apply_refinement(sched::AdaptiveOptions &o, const SamplerSpec &sampler, double time_s) {
+void apply_refinement(sched::AdaptiveOptions &o, const SamplerSpec &sampler) {
     if (!o.adaptive)
         return;
-    o.refine_target = sampler.refine.value_or(time_s > 0 && !sampler.error);
+    o.refine_target = sampler.refine.value_or(false);
     o.refine_factor = sampler.refine_factor;
     o.refine_spp_ratio = sampler.refine_spp_ratio;
     o.refine_floor_ratio = sampler.refine_floor_ratio;
@@ -270,7 +270,7 @@ RenderReport run_render(const RenderOptions &opt) {
     sched::AdaptiveOptions so = scheduler_options(*scene, sampler, opt.threads, opt.quiet);
     so.deterministic = opt.deterministic;
     so.max_passes = opt.max_passes;
-    apply_refinement(so, sampler, opt.time_s);
+    apply_refinement(so, sampler);
     const double start_error_target = so.error_target;
 
     CheckpointState cs;

@@ -45,12 +45,12 @@ struct SamplerSpec {
     /// Narrowest region a split may create, pixels. One tile: narrower leaves chase the noise
     /// of single pixels' error estimates (salt-and-pepper sample maps; measured in the notes).
     double min_extent = 8;
-    /// adaptive:refine=0|1; unset: on for a render with a time budget and no explicit error
-    /// (see apply_refinement).
+    /// adaptive:refine=0|1; unset: off (opt-in, see apply_refinement and the note of the
+    /// adaptive issue: it helps some scenes and hurts others).
     std::optional<bool> refine;
     double refine_factor = 0.5;  ///< adaptive:refine-factor
-    double refine_spp_ratio = 16;   ///< adaptive:refine-spp-ratio
-    double refine_floor_ratio = 8;  ///< adaptive:refine-floor-ratio
+    double refine_spp_ratio = 8;    ///< adaptive:refine-spp-ratio
+    double refine_floor_ratio = 1.5;  ///< adaptive:refine-floor-ratio
     /// One line, e.g. "adaptive:error=0.002,min-spp=16".
     std::string describe() const;
 };
@@ -116,11 +116,11 @@ std::pair<std::string, std::string> output_paths(const std::string &requested);
 sched::AdaptiveOptions scheduler_options(const Scene &scene, const SamplerSpec &sampler,
                                          uint32_t threads, bool quiet);
 
-/// Target refinement of an adaptive render (sched::AdaptiveOptions::refine_target): on when the
-/// sampler asks for it (adaptive:refine=1), or, when it says nothing, when the render has a time
-/// budget (`time_s` > 0) and no explicit error target. Refining without an explicit error starts
-/// at kDefaultRefineStartTarget. Other samplers are left as they are.
-void apply_refinement(sched::AdaptiveOptions &o, const SamplerSpec &sampler, double time_s);
+/// Target refinement of an adaptive render (sched::AdaptiveOptions::refine_target): on only when
+/// the sampler asks for it (adaptive:refine=1; the scheduler ignores it without a time or spp
+/// budget). Refining without an explicit error starts at kDefaultRefineStartTarget. Other
+/// samplers are left as they are.
+void apply_refinement(sched::AdaptiveOptions &o, const SamplerSpec &sampler);
 
 /// Renders `scene` into `film` with uniform sampling to the scene's spp (tests, benchmarks);
 /// `cancel` may stop it early.

@@ -52,11 +52,11 @@ std::vector<PluginInfo> progressive_plugins() {
         {"min-extent", 8, 1, 1 << 20, false, "narrowest region a split may create, pixels"},
         {"refine", 0, 0, 1, true,
          "when every region is complete before the time/spp budget is spent, lower the error "
-         "target and go on (unset: on with a time budget and no explicit error)"},
+         "target and go on (opt-in; starts from 0.01 unless error= is given)"},
         {"refine-factor", 0.5, 0.01, 0.99, false, "error target multiplier per refinement"},
-        {"refine-spp-ratio", 16, 0, 1e6, false,
+        {"refine-spp-ratio", 8, 0, 1e6, false,
          "refining: no pixel above this x the mean spp (0: no cap)"},
-        {"refine-floor-ratio", 8, 0, 1e6, false,
+        {"refine-floor-ratio", 1.5, 0, 1e6, false,
          "refining: pixels below the mean spp / this are sampled anyway (0: no floor)"},
     };
     out.push_back(adaptive);

@@ -221,11 +221,22 @@ struct AdaptiveScheduler::RenderContext {
         cap = std::min(cap, o.max_spp ? double(o.max_spp) : 4e9);
         pixel_cap.store(std::max(pixel_cap.load(std::memory_order_relaxed), uint32_t(cap)),
                         std::memory_order_relaxed);
-        if (o.refine_floor_ratio > 0) {
-            const double floor = std::min(mean / o.refine_floor_ratio, cap);
-            pixel_floor.store(std::max(pixel_floor.load(std::memory_order_relaxed),
-                                       uint32_t(floor)),
-                              std::memory_order_relaxed);
+        raise_floor(o);
+    }
+    // The floor for the film's current mean: mean / refine_floor_ratio, at most the cap (when
+    // there is one), never lower than before. Called at every rebuild, from any thread, so
+    // that the floor follows the mean between refinements (the hard regions may hold the
+    // level open for most of the budget).
+    void raise_floor(const AdaptiveOptions &o) {
+        if (!(o.refine_floor_ratio > 0))
+            return;
+        const double mean = double(film_samples.load(std::memory_order_relaxed)) / double(pixels);
+        double floor = mean / o.refine_floor_ratio;
+        if (o.refine_spp_ratio > 0)
+            floor = std::min(floor, double(pixel_cap.load(std::memory_order_relaxed)));
+        const uint32_t f = uint32_t(floor);
+        uint32_t cur = pixel_floor.load(std::memory_order_relaxed);
+        while (f > cur && !pixel_floor.compare_exchange_weak(cur, f, std::memory_order_relaxed)) {
         }
     }
     std::unique_ptr<AdaptiveProgress> progress;
@@ -700,6 +711,8 @@ bool AdaptiveScheduler::rebuild_quadrant(int q, RenderContext &ctx, WorkerState 
                 unknown += u;
             }
         }
+    if (refine_)
+        ctx.raise_floor(options_);
     sampling::RegionTreeParams params;
     params.target = refine_ ? target_at(level) : options_.error_target;
     params.split_factor = options_.split_factor;

@@ -73,8 +73,9 @@
 // Two guards tie the allocation to the image mean (set at the start and at each refinement):
 // no pixel takes more than refine_spp_ratio x the mean spp (a region that cannot reach the
 // target -- fireflies -- would otherwise swallow the budget; a quadrant pass that took no sample
-// counts as complete), and pixels below mean / refine_floor_ratio are sampled even inside
-// completed regions (a few dozen samples' Dammertz estimate can call a region done too early).
+// counts as complete), and pixels below mean / refine_floor_ratio (updated at every rebuild)
+// are sampled even inside completed regions (a few dozen samples' Dammertz estimate can call a
+// region done too early).
 #pragma once
 
 #include <array>
@@ -134,11 +135,12 @@ struct AdaptiveOptions {
     /// (every open pixel capped) counts as complete. Keeps a region that cannot reach the
     /// target (fireflies; a narrow leaf in a tile of frozen errors) from taking the whole
     /// budget. 0: no cap.
-    double refine_spp_ratio = 16;
+    double refine_spp_ratio = 8;
     /// Refining, pixels below the image's mean samples per pixel / this ratio (as of the last
-    /// refinement) are sampled even inside completed regions: the Dammertz estimate of a few
-    /// dozen samples can call a region complete that is not. 0: no floor.
-    double refine_floor_ratio = 8;
+    /// quadrant rebuild; never above the cap) are sampled even inside completed regions: the
+    /// Dammertz estimate of a few dozen samples can call a region complete before it showed a
+    /// rare bright path (a small light's silhouette, a caustic). 0: no floor.
+    double refine_floor_ratio = 1.5;
     bool adaptive = true;        ///< false: uniform passes (every pixel active)
     bool deterministic = false;  ///< barrier between passes: bit-identical for any thread count
     uint32_t threads = 0;        ///< worker threads (0: TBB's default concurrency)

@@ -4,6 +4,7 @@
 // without refinement (or without a budget) nothing changes.
 #include <doctest/doctest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <vector>
@@ -196,4 +197,52 @@ TEST_CASE("refine: without a budget, or without refine_target, the render is as 
     AdaptiveOptions bad = options(1, true);
     bad.refine_factor = 1.0;
     CHECK_THROWS_AS(AdaptiveScheduler(src, film, bad), std::invalid_argument);
+}
+
+TEST_CASE("refine: the floor samples completed regions, the cap bounds the hard one") {
+    // Easy part exactly constant: its regions complete at the first estimate and, without a
+    // floor, never receive another sample.
+    TwoNoiseSource src(kW, kH, kHard, 0.3f, 0.0f);
+    struct Counts {
+        uint32_t easy_min = ~0u, max = 0;
+        double mean = 0;
+    };
+    auto run = [&](double floor_ratio, double spp_ratio) {
+        sampling::Film film(kW, kH);
+        AdaptiveOptions o = options(2, true);
+        o.deterministic = true;
+        o.max_spp = 1024;
+        o.refine_floor_ratio = floor_ratio;
+        o.refine_spp_ratio = spp_ratio;
+        AdaptiveStats st = AdaptiveScheduler(src, film, o).render();
+        CHECK(st.refinements >= 1);
+        Counts c;
+        for (uint32_t y = 0; y < kH; ++y)
+            for (uint32_t x = 0; x < kW; ++x) {
+                const uint32_t n = film.sample_count(x, y);
+                const bool inside = int(x) >= kHard.x0 && int(x) < kHard.x1 &&
+                                    int(y) >= kHard.y0 && int(y) < kHard.y1;
+                if (!inside) c.easy_min = std::min(c.easy_min, n);
+                c.max = std::max(c.max, n);
+                c.mean += n;
+            }
+        c.mean /= double(kW) * kH;
+        return c;
+    };
+    const Counts none = run(0, 0);   // no floor, no cap
+    const Counts floor = run(1.5, 0);
+    const Counts cap = run(0, 4);
+    MESSAGE("no floor: easy min " << none.easy_min << ", max " << none.max << ", mean " << none.mean);
+    MESSAGE("floor 1.5: easy min " << floor.easy_min << ", mean " << floor.mean);
+    MESSAGE("cap 4: max " << cap.max << ", mean " << cap.mean);
+    // Without a floor the constant part keeps its first pass only; the hard part goes to the cap.
+    CHECK(none.easy_min == 16);
+    CHECK(none.max == 1024);
+    // With the floor every easy pixel follows the image mean (as of the last refinement, so
+    // with a pass of slack: at least a quarter of the final mean).
+    CHECK(floor.easy_min > 16);
+    CHECK(double(floor.easy_min) >= floor.mean / 4);
+    // With the cap no pixel exceeds 4x the mean (the final mean bounds every earlier one).
+    CHECK(double(cap.max) <= 4 * cap.mean);
+    CHECK(cap.max < 1024);
 }
