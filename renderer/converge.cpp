@@ -71,6 +71,9 @@ class SamplerRun {
         options_.max_spp = opt.overrides.spp ? uint32_t(*opt.overrides.spp) : 0;
         if (options_.max_spp)
             options_.min_spp = std::min(options_.min_spp, options_.max_spp);
+        // adaptive:refine=1 runs lower their target as regions complete, so they use the whole
+        // budget ("stopped" then means the spp cap or the floor target); refinement is opt-in.
+        apply_refinement(options_, spec);
     }
 
     /// Renders until `target_s` seconds of render time in all (unless it stopped by itself),
@@ -89,6 +92,9 @@ class SamplerRun {
             samples_ += st.samples;
             rays_ += st.rays;
             passes_ = st.resume_pass;
+            // The next chunk starts from the refined target, not from the first one.
+            if (options_.refine_target)
+                options_.error_target = st.final_error_target;
             // Neither time nor cancel stopped it: converged, or every pass up to --spp done.
             stopped_ = !st.out_of_time;
         }

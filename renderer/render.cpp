@@ -63,6 +63,8 @@ void accumulate(sched::AdaptiveStats &total, const sched::AdaptiveStats &s) {
     total.cancelled = s.cancelled;
     total.out_of_time = s.out_of_time;
     total.converged = s.converged;
+    total.refinements += s.refinements;
+    total.final_error_target = s.final_error_target;
     total.tiles_rendered += s.tiles_rendered;
     total.tiles_skipped += s.tiles_skipped;
     total.pixels_skipped += s.pixels_skipped;
@@ -97,6 +99,12 @@ std::string SamplerSpec::describe() const {
         if (min_spp) os << ",min-spp=" << *min_spp;
         os << ",max-pass-spp=" << max_pass_spp << ",split-factor=" << split_factor
            << ",min-extent=" << min_extent;
+        // Only when given: checkpoints compare this line, and older ones do not have it.
+        if (refine)
+            os << ",refine=" << (*refine ? 1 : 0);
+        if (refine_factor != 0.5) os << ",refine-factor=" << refine_factor;
+        if (refine_spp_ratio != 8) os << ",refine-spp-ratio=" << refine_spp_ratio;
+        if (refine_floor_ratio != 1.5) os << ",refine-floor-ratio=" << refine_floor_ratio;
     }
     return os.str();
 }
@@ -117,6 +125,11 @@ SamplerSpec parse_sampler_spec(const std::string &text) {
         if (p.is_set("error")) spec.error = p.get("error");
         spec.split_factor = p.get("split-factor");
         spec.min_extent = p.get("min-extent");
+        if (p.is_set("refine"))
+            spec.refine = p.get("refine") != 0;
+        spec.refine_factor = p.get("refine-factor");
+        spec.refine_spp_ratio = p.get("refine-spp-ratio");
+        spec.refine_floor_ratio = p.get("refine-floor-ratio");
     }
     return spec;
 }
@@ -150,6 +163,17 @@ sched::AdaptiveOptions scheduler_options(const Scene &scene, const SamplerSpec &
     o.seed = scene.settings.seed;
     o.progress = quiet ? sched::ProgressReporter::Mode::Never : sched::ProgressReporter::Mode::Auto;
     return o;
+}
+
+void apply_refinement(sched::AdaptiveOptions &o, const SamplerSpec &sampler) {
+    if (!o.adaptive)
+        return;
+    o.refine_target = sampler.refine.value_or(false);
+    o.refine_factor = sampler.refine_factor;
+    o.refine_spp_ratio = sampler.refine_spp_ratio;
+    o.refine_floor_ratio = sampler.refine_floor_ratio;
+    if (o.refine_target && !sampler.error)
+        o.error_target = kDefaultRefineStartTarget;
 }
 
 sched::AdaptiveStats render_scene(const Scene &scene, sampling::Film &film, uint32_t threads,
@@ -246,6 +270,8 @@ RenderReport run_render(const RenderOptions &opt) {
     sched::AdaptiveOptions so = scheduler_options(*scene, sampler, opt.threads, opt.quiet);
     so.deterministic = opt.deterministic;
     so.max_passes = opt.max_passes;
+    apply_refinement(so, sampler);
+    const double start_error_target = so.error_target;
 
     CheckpointState cs;
     cs.seed = scene->settings.seed;
@@ -293,6 +319,9 @@ RenderReport run_render(const RenderOptions &opt) {
             // The next chunk (and a checkpoint) resumes at the first pass some tile has not
             // finished, not after the furthest quadrant's: the others would never catch up.
             so.start_pass = int64_t(s.resume_pass);
+            // A refined target carries over to the next chunk.
+            if (so.refine_target)
+                so.error_target = s.final_error_target;
             bool chunk_timeout = s.out_of_time && opt.checkpoint_every > 0 &&
                                  !(opt.time_s > 0 && seconds_since(t_render) >= opt.time_s);
             if (chunk_timeout) {
@@ -386,7 +415,10 @@ RenderReport run_render(const RenderOptions &opt) {
             j["error_estimate"] = s.error_estimate;
         else
             j["error_estimate"] = nullptr;
-        j["error_target"] = so.error_target;
+        j["error_target"] = start_error_target;
+        j["refine_target"] = so.refine_target;
+        j["final_error_target"] = so.adaptive ? so.error_target : 0.0;
+        j["refinements"] = s.refinements;
         j["converged"] = s.converged;
         j["spp_histogram"] = s.spp_histogram;
         j["wall_s"] = s.wall_s;

@@ -19,6 +19,12 @@ namespace tessera {
 /// sampling/region_tree.h). Chosen with scripts/bench_adaptive.py (now `tessera converge`).
 inline constexpr double kDefaultErrorTarget = 0.001;
 
+/// Starting region error target of a refining adaptive render with no explicit error (a time
+/// budget and no `--error` / `error=`): loose, so that the easy regions stop early and the
+/// target then falls by refine-factor each time every region is complete (see
+/// sched::AdaptiveOptions::refine_target; measured in the refinement note of the adaptive issue).
+inline constexpr double kDefaultRefineStartTarget = 0.01;
+
 /// A sampler selection: any registered plugin (sampling/pixel_sampler.h; `tessera samplers`
 /// lists them), e.g. `uniform`, `adaptive[:error=E,min-spp=N,...]` (progressive, run by the
 /// adaptive scheduler) or `jin:tau_col=0.6` (a real-time frame plugin). For the progressive
@@ -39,6 +45,12 @@ struct SamplerSpec {
     /// Narrowest region a split may create, pixels. One tile: narrower leaves chase the noise
     /// of single pixels' error estimates (salt-and-pepper sample maps; measured in the notes).
     double min_extent = 8;
+    /// adaptive:refine=0|1; unset: off (opt-in, see apply_refinement and the note of the
+    /// adaptive issue: it helps some scenes and hurts others).
+    std::optional<bool> refine;
+    double refine_factor = 0.5;  ///< adaptive:refine-factor
+    double refine_spp_ratio = 8;    ///< adaptive:refine-spp-ratio
+    double refine_floor_ratio = 1.5;  ///< adaptive:refine-floor-ratio
     /// One line, e.g. "adaptive:error=0.002,min-spp=16".
     std::string describe() const;
 };
@@ -103,6 +115,12 @@ std::pair<std::string, std::string> output_paths(const std::string &requested);
 /// Scheduler options for a scene and a sampler choice (shared by the CLI, tests, benchmarks).
 sched::AdaptiveOptions scheduler_options(const Scene &scene, const SamplerSpec &sampler,
                                          uint32_t threads, bool quiet);
+
+/// Target refinement of an adaptive render (sched::AdaptiveOptions::refine_target): on only when
+/// the sampler asks for it (adaptive:refine=1; the scheduler ignores it without a time or spp
+/// budget). Refining without an explicit error starts at kDefaultRefineStartTarget. Other
+/// samplers are left as they are.
+void apply_refinement(sched::AdaptiveOptions &o, const SamplerSpec &sampler);
 
 /// Renders `scene` into `film` with uniform sampling to the scene's spp (tests, benchmarks);
 /// `cancel` may stop it early.

@@ -50,6 +50,14 @@ std::vector<PluginInfo> progressive_plugins() {
         {"max-pass-spp", 64, 0, 1 << 20, true, "largest pass in samples per pixel (0: doubling)"},
         {"split-factor", 256, 1, 1e9, false, "split a region while e_b < split-factor x error"},
         {"min-extent", 8, 1, 1 << 20, false, "narrowest region a split may create, pixels"},
+        {"refine", 0, 0, 1, true,
+         "when every region is complete before the time/spp budget is spent, lower the error "
+         "target and go on (opt-in; starts from 0.01 unless error= is given)"},
+        {"refine-factor", 0.5, 0.01, 0.99, false, "error target multiplier per refinement"},
+        {"refine-spp-ratio", 8, 0, 1e6, false,
+         "refining: no pixel above this x the mean spp (0: no cap)"},
+        {"refine-floor-ratio", 1.5, 0, 1e6, false,
+         "refining: pixels below the mean spp / this are sampled anyway (0: no floor)"},
     };
     out.push_back(adaptive);
     return out;

@@ -81,6 +81,7 @@ class AdaptiveProgress {
         }
     }
     void set_error(double e) { error_.store(e, std::memory_order_relaxed); }
+    void set_target(double t) { target_.store(t, std::memory_order_relaxed); }
     void finish() {
         if (!enabled_)
             return;
@@ -95,7 +96,7 @@ class AdaptiveProgress {
         uint64_t done = samples_.load(std::memory_order_relaxed);
         st.mean_spp = pixels_ ? double(initial_samples_ + done) / double(pixels_) : 0.0;
         st.error = error_.load(std::memory_order_relaxed);
-        st.error_target = options_.error_target;
+        st.error_target = target_.load(std::memory_order_relaxed);
         st.elapsed_s = seconds_since(start_);
         if (st.elapsed_s > 0)
             st.rays_per_s = double(rays_.load(std::memory_order_relaxed)) / st.elapsed_s;
@@ -144,6 +145,7 @@ class AdaptiveProgress {
     std::atomic<uint64_t> samples_{0}, rays_{0};
     std::atomic<uint32_t> passes_{0};
     std::atomic<double> error_{-1.0};
+    std::atomic<double> target_{options_.error_target};
     std::atomic<int64_t> next_draw_ns_{0};
     std::mutex draw_mutex_;
     size_t last_line_length_ = 0;
@@ -182,6 +184,8 @@ struct AdaptiveScheduler::Quadrant {
     std::atomic<uint64_t> unknown_pixels{0};    // pixels of `rect` without an estimate
     std::atomic<uint32_t> passes_done{0};       // passes of this quadrant completed (this render)
     std::atomic<uint32_t> rebuild_requests{0};  // see finish_tile_nonbarrier
+    // Refining: samples its tiles took since the last pass end (a pass with none is "idle").
+    std::atomic<uint64_t> pass_samples{0};
 };
 
 struct AdaptiveScheduler::RenderContext {
@@ -192,6 +196,49 @@ struct AdaptiveScheduler::RenderContext {
     std::atomic<uint64_t> next_work{0};
     std::atomic<bool> stop{false}, stop_cancel{false}, stop_time{false}, converged{false};
     std::atomic<uint32_t> open_mask{0};  // bit q: quadrant q's tree incomplete
+    // Refinement level (AdaptiveOptions::refine_target): the target is target_at(level). The
+    // level, and open_mask whenever refinement is on, change only under level_mutex, so a
+    // rebuild's "every quadrant complete" and the lowering it triggers are one step.
+    std::mutex level_mutex;
+    uint32_t level = 0;
+    uint32_t refinements = 0;    // levels added in this call (guarded by level_mutex)
+    uint32_t nonempty_mask = 0;  // bit q: quadrant q has pixels
+    // Refining: per-pixel sample cap of the current level (AdaptiveOptions::refine_spp_ratio;
+    // 0: none), and samples in the film (for the image mean the cap follows).
+    std::atomic<uint32_t> pixel_cap{0};
+    // Refining: pixels below this count are sampled even in completed regions
+    // (AdaptiveOptions::refine_floor_ratio; 0: none).
+    std::atomic<uint32_t> pixel_floor{0};
+    std::atomic<uint64_t> film_samples{0};
+    uint64_t pixels = 1;
+    // The cap for the film's current mean: ratio x max(min_spp, mean spp), never lower than
+    // before, at most max_spp. Called under level_mutex or with no worker running.
+    void raise_cap(const AdaptiveOptions &o) {
+        if (!(o.refine_spp_ratio > 0))
+            return;
+        const double mean = double(film_samples.load(std::memory_order_relaxed)) / double(pixels);
+        double cap = o.refine_spp_ratio * std::max(double(std::max(o.min_spp, 1u)), mean);
+        cap = std::min(cap, o.max_spp ? double(o.max_spp) : 4e9);
+        pixel_cap.store(std::max(pixel_cap.load(std::memory_order_relaxed), uint32_t(cap)),
+                        std::memory_order_relaxed);
+        raise_floor(o);
+    }
+    // The floor for the film's current mean: mean / refine_floor_ratio, at most the cap (when
+    // there is one), never lower than before. Called at every rebuild, from any thread, so
+    // that the floor follows the mean between refinements (the hard regions may hold the
+    // level open for most of the budget).
+    void raise_floor(const AdaptiveOptions &o) {
+        if (!(o.refine_floor_ratio > 0))
+            return;
+        const double mean = double(film_samples.load(std::memory_order_relaxed)) / double(pixels);
+        double floor = mean / o.refine_floor_ratio;
+        if (o.refine_spp_ratio > 0)
+            floor = std::min(floor, double(pixel_cap.load(std::memory_order_relaxed)));
+        const uint32_t f = uint32_t(floor);
+        uint32_t cur = pixel_floor.load(std::memory_order_relaxed);
+        while (f > cur && !pixel_floor.compare_exchange_weak(cur, f, std::memory_order_relaxed)) {
+        }
+    }
     std::unique_ptr<AdaptiveProgress> progress;
     std::mutex merge_mutex;
     AdaptiveStats totals;  // per-worker sums merged under merge_mutex
@@ -305,6 +352,15 @@ uint64_t first_target(const AdaptiveOptions &o) {
     return std::clamp<uint64_t>(std::max(o.min_spp, 1u), 1, spp_cap(o));
 }
 
+// The next target of a pixel with `count` samples by the pass rule (see pass_target): the
+// first pass's target from 0, then doubling up to max_pass_spp, then steps of max_pass_spp.
+uint32_t grown_target(const AdaptiveOptions &o, uint32_t count) {
+    if (count == 0)
+        return uint32_t(first_target(o));
+    const uint64_t c = count, step = o.max_pass_spp ? std::min<uint64_t>(c, o.max_pass_spp) : c;
+    return uint32_t(std::min(spp_cap(o), c + step));
+}
+
 }  // namespace
 
 uint32_t AdaptiveScheduler::pass_target(const AdaptiveOptions &o, uint64_t pass) {
@@ -356,6 +412,11 @@ AdaptiveScheduler::AdaptiveScheduler(const SampleSource &source, sampling::Film 
     if (film.width() != source.width() || film.height() != source.height())
         throw std::invalid_argument("AdaptiveScheduler: film and sample source sizes differ");
     adaptive_ = options_.adaptive && options_.error_target > 0;
+    if (adaptive_ && options_.refine_target &&
+        !(options_.refine_factor > 0 && options_.refine_factor < 1))
+        throw std::invalid_argument("AdaptiveScheduler: refine_factor must lie in (0, 1)");
+    // Without a budget that ends the render, refinement would never stop.
+    refine_ = adaptive_ && options_.refine_target && (options_.time_s > 0 || options_.max_spp > 0);
     if (options_.max_spp == 0 && !(options_.time_s > 0) && !adaptive_)
         throw std::invalid_argument(
             "AdaptiveScheduler: max_spp 0 needs a time budget or an error target");
@@ -406,6 +467,14 @@ AdaptiveScheduler::AdaptiveScheduler(const SampleSource &source, sampling::Film 
 
 AdaptiveScheduler::~AdaptiveScheduler() = default;
 
+double AdaptiveScheduler::target_at(uint32_t level) const {
+    // Repeated multiplication, not pow(): the same bits on every platform and thread.
+    double t = options_.error_target;
+    for (uint32_t i = 0; i < level; ++i)
+        t *= options_.refine_factor;
+    return t;
+}
+
 const sampling::RegionTree &AdaptiveScheduler::tree(int quadrant) const {
     return quadrants_.at(size_t(quadrant))->live();
 }
@@ -423,7 +492,7 @@ std::string AdaptiveScheduler::describe() const {
     os << ", " << threads_ << " threads, " << (adaptive_ ? "adaptive" : "uniform")
        << (options_.deterministic ? " deterministic" : " barrier-free") << ", spp "
        << options_.min_spp << ".." << options_.max_spp << ", target " << options_.error_target
-       << ", seed " << options_.seed << ")";
+       << (refine_ ? " (refined)" : "") << ", seed " << options_.seed << ")";
     return os.str();
 }
 
@@ -483,6 +552,7 @@ void AdaptiveScheduler::process_tile(size_t t, uint32_t pass, RenderContext &ctx
 
     auto t0 = Clock::now();
     const uint32_t target = pass_target(options_, pass);
+    const uint32_t pixel_cap = refine_ ? ctx.pixel_cap.load(std::memory_order_relaxed) : 0;
     const uint32_t tw = tile.width(), n = tile.pixel_count();
     std::fill_n(ws.active.begin(), n, uint8_t(1));
     if (adaptive_ && pass > 0) {
@@ -492,7 +562,14 @@ void AdaptiveScheduler::process_tile(size_t t, uint32_t pass, RenderContext &ctx
         quad.live().active_rects(
             sampling::PixelBounds{int(tile.x0), int(tile.y0), int(tile.x1), int(tile.y1)}, ws.rects);
         quad.locks.unlock_shared(s);
-        if (ws.rects.empty() && !options_.visit_hook) {
+        // Refining: pixels below the level's floor count as active wherever they are (the
+        // tile's pixels belong to this thread now, so their counts can be read).
+        const uint32_t floor = refine_ ? ctx.pixel_floor.load(std::memory_order_relaxed) : 0;
+        bool below_floor = false;
+        if (floor > 0)
+            for (uint32_t i = 0; i < n && !below_floor; ++i)
+                below_floor = film_.sample_count(tile.x0 + i % tw, tile.y0 + i / tw) < floor;
+        if (ws.rects.empty() && !below_floor && !options_.visit_hook) {
             // The whole tile lies in converged regions: it costs the tree check above and
             // nothing else (no pixel is read or written).
             ws.pixels_skipped += n;
@@ -510,6 +587,10 @@ void AdaptiveScheduler::process_tile(size_t t, uint32_t pass, RenderContext &ctx
                 for (int x = x0; x < x1; ++x)
                     ws.active[size_t(y - int(tile.y0)) * tw + size_t(x - int(tile.x0))] = 1;
         }
+        if (below_floor)
+            for (uint32_t i = 0; i < n; ++i)
+                if (film_.sample_count(tile.x0 + i % tw, tile.y0 + i / tw) < floor)
+                    ws.active[i] = 1;
     }
 
     bool any_active = false, any_new_error = false;
@@ -524,8 +605,21 @@ void AdaptiveScheduler::process_tile(size_t t, uint32_t pass, RenderContext &ctx
             continue;
         }
         any_active = true;
+        // Refining, a pixel grows from its own count by the pass rule (16, 32, 64, +64, ...)
+        // instead of jumping to the pass's target: a region reopened after sitting out many
+        // passes (the pass index runs fast while every tile is skipped) would otherwise take
+        // thousands of samples at once, far beyond what the lowered target asks for.
+        // Also at most the level's cap (AdaptiveOptions::refine_spp_ratio): a pixel whose
+        // region cannot get below the target (a firefly, a leaf sharing a tile with frozen
+        // errors) would otherwise take every sample of the budget.
+        uint32_t pixel_target = target;
+        if (refine_) {
+            pixel_target = std::min(target, grown_target(options_, first));
+            if (pixel_cap > 0)
+                pixel_target = std::min(pixel_target, std::max(first, pixel_cap));
+        }
         // The film's count is the pixel's next index: each pixel continues its own sequence.
-        for (uint32_t index = first; index < target; ++index) {
+        for (uint32_t index = first; index < pixel_target; ++index) {
             CameraSample cs = camera_sample(options_.seed, px, py, index);
             Sample s = source_.evaluate(cs);
             rays += s.rays;
@@ -533,8 +627,8 @@ void AdaptiveScheduler::process_tile(size_t t, uint32_t pass, RenderContext &ctx
             ++samples;
             film_.add_sample(px, py, index, s);
         }
-        ws.after[i] = std::max(first, target);
-        if (adaptive_ && target > first) {
+        ws.after[i] = std::max(first, pixel_target);
+        if (adaptive_ && pixel_target > first) {
             error_snapshot_[size_t(py) * film_.width() + px].store(
                 sampling::pixel_error(film_.pixel_stats(px, py), options_.min_samples_for_error),
                 std::memory_order_relaxed);
@@ -553,6 +647,10 @@ void AdaptiveScheduler::process_tile(size_t t, uint32_t pass, RenderContext &ctx
     ws.render_s += seconds_since(t0);
     if (ctx.progress)
         ctx.progress->add(samples, rays);
+    if (refine_ && samples) {
+        quad.pass_samples.fetch_add(samples, std::memory_order_relaxed);
+        ctx.film_samples.fetch_add(samples, std::memory_order_relaxed);
+    }
 
     if (options_.visit_hook) {
         TileVisit v;
@@ -571,11 +669,19 @@ void AdaptiveScheduler::process_tile(size_t t, uint32_t pass, RenderContext &ctx
     done.notify_all();
 }
 
-void AdaptiveScheduler::rebuild_quadrant(int q, RenderContext &ctx, WorkerState &ws) {
+bool AdaptiveScheduler::rebuild_quadrant(int q, RenderContext &ctx, WorkerState &ws,
+                                         bool pass_idle) {
     Quadrant &quad = *quadrants_[size_t(q)];
     if (quad.rect.empty())
-        return;
+        return false;
     auto t0 = Clock::now();
+    // The level this rebuild builds for (a per-rebuild snapshot: another quadrant's rebuild may
+    // lower the target meanwhile; see the end).
+    uint32_t level = 0;
+    if (refine_) {
+        std::lock_guard<std::mutex> lock(ctx.level_mutex);
+        level = ctx.level;
+    }
     // Gather the per-tile error sums of the grown rectangle (tile aligned at its top-left
     // corner; its right and bottom edge are tile boundaries or the image edge); sum the
     // quadrant's own tiles for the progress estimate.
@@ -605,8 +711,10 @@ void AdaptiveScheduler::rebuild_quadrant(int q, RenderContext &ctx, WorkerState 
                 unknown += u;
             }
         }
+    if (refine_)
+        ctx.raise_floor(options_);
     sampling::RegionTreeParams params;
-    params.target = options_.error_target;
+    params.target = refine_ ? target_at(level) : options_.error_target;
     params.split_factor = options_.split_factor;
     params.min_extent = options_.min_extent;
     // Build into the idle copy, publish it, then take each stripe's writer lock in turn: once
@@ -617,16 +725,44 @@ void AdaptiveScheduler::rebuild_quadrant(int q, RenderContext &ctx, WorkerState 
     const uint32_t idle = 1u - quad.active.load(std::memory_order_relaxed);
     sampling::RegionTree &next = quad.trees[idle];
     next.rebuild_cells(cells, params);
-    const bool complete = next.complete();
+    // Refining: complete means "no open leaf over the quadrant's own pixels". An open leaf
+    // only in the one-tile margin belongs to a neighbour, which may find its own, differently
+    // cut region there complete; waiting for it would stall every refinement.
+    // A pass that took no sample (every open pixel at the level's cap) counts as complete too:
+    // nothing more can happen at this level.
+    const bool complete = refine_ ? next.open_area() <= 0.0 || pass_idle : next.complete();
     quad.active.store(idle, std::memory_order_release);
     ws.writer_wait_s += quad.locks.sweep();
 
     quad.error_sum.store(sum, std::memory_order_relaxed);
     quad.unknown_pixels.store(unknown, std::memory_order_relaxed);
-    if (complete)
-        ctx.open_mask.fetch_and(~(1u << q), std::memory_order_relaxed);
-    else
-        ctx.open_mask.fetch_or(1u << q, std::memory_order_relaxed);
+    bool refined = false;
+    if (!refine_) {
+        if (complete)
+            ctx.open_mask.fetch_and(~(1u << q), std::memory_order_relaxed);
+        else
+            ctx.open_mask.fetch_or(1u << q, std::memory_order_relaxed);
+    } else {
+        std::lock_guard<std::mutex> lock(ctx.level_mutex);
+        // A tree built for an older level says nothing about the current target: the quadrant
+        // stays open until its next rebuild. The new mask is stored once: other threads read
+        // it without the mutex, and a transient zero would stop the render.
+        uint32_t mask = ctx.open_mask.load(std::memory_order_relaxed);
+        mask = complete && level == ctx.level ? mask & ~(1u << q) : mask | (1u << q);
+        if (mask == 0 && target_at(ctx.level + 1) >= options_.refine_min_target) {
+            // Every quadrant is complete at the current target and the budget is not spent:
+            // lower the target and reopen every quadrant until it is rebuilt against it.
+            ++ctx.level;
+            ++ctx.refinements;
+            ctx.raise_cap(options_);
+            mask = ctx.nonempty_mask;
+            if (ctx.progress)
+                ctx.progress->set_target(target_at(ctx.level));
+            refined = true;
+        }
+        // Otherwise a zero mask means converged at the floor target: the caller stops.
+        ctx.open_mask.store(mask, std::memory_order_relaxed);
+    }
     const double s = seconds_since(t0);
     ws.rebuild_s += s;
     ++quad.rebuilds;
@@ -642,6 +778,24 @@ void AdaptiveScheduler::rebuild_quadrant(int q, RenderContext &ctx, WorkerState 
         }
         ctx.progress->set_error(known ? total / (double(w) * double(h))
                                       : std::numeric_limits<double>::infinity());
+    }
+    return refined;
+}
+
+void AdaptiveScheduler::rebuild_all(RenderContext &ctx, WorkerState &ws, bool pass_end) {
+    // In order, on one thread: the result depends on the film only (deterministic mode). A
+    // rebuild that lowered the target leaves the quadrants before it built for the old one:
+    // rebuild all four again (each round lowers the target once; refine_min_target bounds it).
+    bool refined = true;
+    while (refined) {
+        refined = false;
+        for (int q = 0; q < 4; ++q) {
+            // The pass's samples count once: a rebuild after a refinement (raised cap) is not idle.
+            const uint64_t taken =
+                refine_ ? quadrants_[size_t(q)]->pass_samples.exchange(0) : uint64_t(1);
+            refined = rebuild_quadrant(q, ctx, ws, pass_end && taken == 0) || refined;
+        }
+        pass_end = false;
     }
 }
 
@@ -676,7 +830,13 @@ void AdaptiveScheduler::finish_tile_nonbarrier(size_t t, RenderContext &ctx, Wor
             // Uncontended: only the combining thread takes it.
             ws.writer_wait_s += lock_timed(quad.rebuild_mutex);
             std::lock_guard<std::mutex> lock(quad.rebuild_mutex, std::adopt_lock);
-            rebuild_quadrant(q, ctx, ws);
+            // A rebuild that lowered the target rebuilds this quadrant at once against the new
+            // one; the other quadrants follow at the end of their current pass (their tiles are
+            // skipped meanwhile, which costs little).
+            const bool idle = refine_ && quad.pass_samples.exchange(0) == 0;
+            if (rebuild_quadrant(q, ctx, ws, idle))
+                while (rebuild_quadrant(q, ctx, ws, false)) {
+                }
             if (ctx.open_mask.load(std::memory_order_relaxed) == 0) {
                 ctx.converged.store(true, std::memory_order_relaxed);
                 ctx.stop.store(true, std::memory_order_relaxed);
@@ -755,6 +915,10 @@ AdaptiveStats AdaptiveScheduler::render(const std::atomic<bool> *cancel) {
         for (uint32_t x = 0; x < w; ++x)
             min_taken = std::min(min_taken, film_.sample_count(x, y));
     uint64_t n_passes = pass_count(options_);
+    // Refining, pixels grow from their own counts (process_tile): one reopened in the last pass
+    // needs up to pass_count more passes to reach max_spp. Bounded, so an spp budget still ends.
+    if (refine_ && options_.max_spp > 0)
+        n_passes *= 2;
     if (options_.max_passes > 0) n_passes = std::min<uint64_t>(n_passes, options_.max_passes);
     uint64_t p0 = 0;
     if (options_.start_pass >= 0) {
@@ -793,6 +957,13 @@ AdaptiveStats AdaptiveScheduler::render(const std::atomic<bool> *cancel) {
                 open |= 1u << q;
         }
         ctx.open_mask.store(open);
+        ctx.nonempty_mask = open;
+        ctx.pixels = std::max<uint64_t>(1, pixels);
+        ctx.film_samples.store(film_.total_samples());
+        for (int q = 0; q < 4; ++q)
+            quadrants_[size_t(q)]->pass_samples.store(0);
+        if (refine_)
+            ctx.raise_cap(options_);
         if (adaptive_) {
             // Allocate and touch every rebuild buffer now (both tree copies' summed-area tables
             // and the error image), so that page faults do not land inside the timed,
@@ -817,8 +988,7 @@ AdaptiveStats AdaptiveScheduler::render(const std::atomic<bool> *cancel) {
             init_error_snapshot();
             // Resuming past the uniform start: the trees come from the film's samples.
             if (p0 > 0) {
-                for (int q = 0; q < 4; ++q)
-                    rebuild_quadrant(q, ctx, main_ws);
+                rebuild_all(ctx, main_ws, false);
                 if (ctx.open_mask.load() == 0)
                     ctx.converged = ctx.stop = true;
             }
@@ -872,8 +1042,7 @@ AdaptiveStats AdaptiveScheduler::render(const std::atomic<bool> *cancel) {
                 ++stats.passes;
                 ctx.progress->set_passes(uint32_t(pass + 1));
                 if (adaptive_) {
-                    for (int q = 0; q < 4; ++q)
-                        rebuild_quadrant(q, ctx, main_ws);
+                    rebuild_all(ctx, main_ws, true);
                     if (ctx.open_mask.load() == 0)
                         ctx.converged = ctx.stop = true;
                 }
@@ -916,6 +1085,8 @@ AdaptiveStats AdaptiveScheduler::render(const std::atomic<bool> *cancel) {
     stats.cancelled = ctx.stop_cancel.load();
     stats.out_of_time = ctx.stop_time.load();
     stats.converged = ctx.converged.load();
+    stats.refinements = ctx.refinements;
+    stats.final_error_target = refine_ ? target_at(ctx.level) : options_.error_target;
     stats.nan_samples = film_.nan_count() - nan_before;
     stats.error_estimate = sampling::image_error(film_, options_.min_samples_for_error);
     stats.spp_histogram.assign(1, 0);

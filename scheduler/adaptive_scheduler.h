@@ -55,6 +55,27 @@
 // runs out, or on cancel (checked between tiles; tiles in flight finish, so the film stays
 // consistent and its counts exact). With error_target 0 or adaptive = false the render is
 // uniform and stops at max_spp.
+//
+// Refinement (refine_target, for renders with a budget). A fixed target either stops the render
+// before the budget is spent (time left unused) or is never reached (adaptive == uniform). With
+// refine_target the target is a starting point instead: when every quadrant's tree is complete
+// at target level L, the target becomes error_target * refine_factor^(L+1) and all quadrants are
+// rebuilt against it, reopening the regions now above it; the render goes on until the time
+// budget, max_spp or cancel stops it (or the target would fall below refine_min_target:
+// "converged"). The level is one counter under a mutex; each rebuild snapshots it at its start
+// and computes its target from it, and a rebuild that finds the level moved meanwhile leaves its
+// quadrant marked open, so "all complete" always means complete at the current level. In the
+// deterministic mode the level changes only between passes on the calling thread.
+// Refining, an active pixel's samples in a visit stop at the pass rule applied to its own count
+// (16, 32, 64, then +max_pass_spp) when that is below the pass's target, so that a reopened
+// region resumes gradually; TileVisit::count_after may then be below `target`. The passes run
+// to twice pass_count when max_spp caps them, so pixels reopened late can still reach it.
+// Two guards tie the allocation to the image mean (set at the start and at each refinement):
+// no pixel takes more than refine_spp_ratio x the mean spp (a region that cannot reach the
+// target -- fireflies -- would otherwise swallow the budget; a quadrant pass that took no sample
+// counts as complete), and pixels below mean / refine_floor_ratio (updated at every rebuild)
+// are sampled even inside completed regions (a few dozen samples' Dammertz estimate can call a
+// region done too early).
 #pragma once
 
 #include <array>
@@ -95,8 +116,31 @@ struct AdaptiveOptions {
     uint32_t max_spp = 1024;  ///< per-pixel cap (0: unlimited; needs time_s or error_target)
     double time_s = 0;        ///< wall-clock budget in seconds (0: none)
     /// Region error (Dammertz e_b) below which a region is complete; 0: no error stopping
-    /// (uniform sampling to max_spp).
+    /// (uniform sampling to max_spp). With refine_target: the starting target.
     double error_target = 0;
+    /// Refinement (see the file comment): when every region is complete before the budget is
+    /// spent, lower the target by refine_factor and go on instead of stopping. Needs a budget
+    /// that ends the render (time_s > 0 or max_spp > 0); ignored otherwise and without error
+    /// stopping.
+    bool refine_target = false;
+    /// Target multiplier per refinement, in (0, 1). 0.5: each level needs about 4x the samples
+    /// of the previous one in the regions it reopens (error ~ 1/sqrt(spp)), so the levels form
+    /// a geometric series and the refinement events (a skipped pass and four rebuilds each)
+    /// stay few: O(log(budget)).
+    double refine_factor = 0.5;
+    /// No refinement below this target: the render then stops as converged.
+    double refine_min_target = 1e-7;
+    /// Refining, no pixel takes more than this many times the image's mean samples per pixel
+    /// (at least min_spp), as of the last refinement; a quadrant whose pass took no sample
+    /// (every open pixel capped) counts as complete. Keeps a region that cannot reach the
+    /// target (fireflies; a narrow leaf in a tile of frozen errors) from taking the whole
+    /// budget. 0: no cap.
+    double refine_spp_ratio = 8;
+    /// Refining, pixels below the image's mean samples per pixel / this ratio (as of the last
+    /// quadrant rebuild; never above the cap) are sampled even inside completed regions: the
+    /// Dammertz estimate of a few dozen samples can call a region complete before it showed a
+    /// rare bright path (a small light's silhouette, a caustic). 0: no floor.
+    double refine_floor_ratio = 1.5;
     bool adaptive = true;        ///< false: uniform passes (every pixel active)
     bool deterministic = false;  ///< barrier between passes: bit-identical for any thread count
     uint32_t threads = 0;        ///< worker threads (0: TBB's default concurrency)
@@ -136,10 +180,16 @@ struct AdaptiveStats {
     /// in the barrier-free mode (`passes` counts the furthest quadrant, whose tiles come first
     /// in Morton order: resuming there would leave the other quadrants' pixels behind).
     uint32_t resume_pass = 0;
-    uint32_t threads = 0;         ///< worker threads
-    bool cancelled = false;       ///< stopped by the cancel flag
-    bool out_of_time = false;     ///< stopped by the time budget
-    bool converged = false;       ///< every quadrant's tree complete (error target reached)
+    uint32_t threads = 0;      ///< worker threads
+    bool cancelled = false;    ///< stopped by the cancel flag
+    bool out_of_time = false;  ///< stopped by the time budget
+    /// Every quadrant's tree complete (error target reached); with refinement, complete at a
+    /// target that refine_min_target does not let it lower further.
+    bool converged = false;
+    /// The region error target in force at the end (error_target when no refinement ran).
+    double final_error_target = 0;
+    /// Times the target was lowered (AdaptiveOptions::refine_target) in this call.
+    uint32_t refinements = 0;
     uint64_t tiles_rendered = 0;  ///< tile visits that took samples or had active pixels
     /// Tile visits skipped: the tile lay in completed regions (it cost the region-tree check
     /// and nothing else).
@@ -224,6 +274,10 @@ class AdaptiveScheduler {
     uint32_t thread_count() const { return threads_; }
     /// True when error stopping is on (adaptive and error_target > 0).
     bool adaptive() const { return adaptive_; }
+    /// True when the target is refined instead of stopping (see AdaptiveOptions::refine_target).
+    bool refining() const { return refine_; }
+    /// The target at refinement level `level`: error_target * refine_factor^level. Pure.
+    double target_at(uint32_t level) const;
     const AdaptiveOptions &options() const { return options_; }
 
     /// Cumulative per-pixel target of pass p (see the file comment). Pure.
@@ -243,13 +297,21 @@ class AdaptiveScheduler {
 
     void process_tile(size_t t, uint32_t pass, RenderContext &ctx, WorkerState &ws);
     void finish_tile_nonbarrier(size_t t, RenderContext &ctx, WorkerState &ws);
-    void rebuild_quadrant(int q, RenderContext &ctx, WorkerState &ws);
+    /// Rebuilds quadrant q's tree against the current target level; returns true when this
+    /// rebuild completed the image and lowered the target (the caller rebuilds again).
+    /// `pass_idle`: the quadrant's pass just ended without taking a sample (refining).
+    bool rebuild_quadrant(int q, RenderContext &ctx, WorkerState &ws, bool pass_idle = false);
+    /// Rebuilds all four quadrants in order on the calling thread, again while that lowers the
+    /// target (deterministic mode and resume).
+    /// `pass_end`: after a pass (its samples decide which quadrants were idle).
+    void rebuild_all(RenderContext &ctx, WorkerState &ws, bool pass_end);
     void init_error_snapshot();
 
     const SampleSource &source_;
     sampling::Film &film_;
     AdaptiveOptions options_;
     bool adaptive_ = false;
+    bool refine_ = false;
     uint32_t threads_ = 1;
     std::vector<Tile> tiles_;
     std::vector<uint32_t> tile_quadrant_;
