@@ -41,7 +41,8 @@ std::vector<std::string> aov_channels(sampling::Aov a) {
 /// The channel layout for a film keeping `aovs`: the beauty words, then the kept AOVs' channels
 /// in canonical order. A checkpoint written before AOVs were optional has the channels of
 /// AovSet::all() (in another order; reading maps channels by name).
-std::vector<Channel> channel_layout(sampling::AovSet aovs) {
+/// A film with prefix snapshots (Film::keeps_prefix) adds their channels at the end.
+std::vector<Channel> channel_layout(sampling::AovSet aovs, bool prefix) {
     std::vector<Channel> ch;
     for (const char *c : {"R", "G", "B"}) ch.push_back({c, true});  // mean, for viewers
     for (const char *buf : {"sum", "half"})
@@ -53,6 +54,12 @@ std::vector<Channel> channel_layout(sampling::AovSet aovs) {
     for (sampling::Aov a : sampling::kAllAovs)
         if (aovs.has(a))
             for (const std::string &name : aov_channels(a)) ch.push_back({name, true});
+    if (prefix) {
+        for (const char *buf : {"prefix.cur", "prefix.prev"})
+            for (const char *c : {"R", "G", "B"}) ch.push_back({std::string(buf) + "." + c, true});
+        ch.push_back({"count.prefix_cur_accepted", false});
+        ch.push_back({"count.prefix_prev_accepted", false});
+    }
     return ch;
 }
 
@@ -68,7 +75,8 @@ float bits_float(uint32_t u) {
 }
 
 /// Packs pixel `i` of the film state into the layout's 4-byte words.
-void pack(const PixelData &p, const sampling::Film::AovData &aov, size_t i, uint32_t *w) {
+void pack(const PixelData &p, const sampling::Film::AovData &aov,
+          const std::vector<sampling::Film::PrefixData> &prefix, size_t i, uint32_t *w) {
     size_t k = 0;
     uint32_t n = p.accepted;
     for (int c = 0; c < 3; ++c) w[k++] = float_bits(n ? float(p.sum[c] / n) : 0.f);
@@ -88,10 +96,18 @@ void pack(const PixelData &p, const sampling::Film::AovData &aov, size_t i, uint
     if (!aov.normal.empty())
         for (float v : aov.normal[i]) w[k++] = float_bits(v);
     if (!aov.depth.empty()) w[k++] = float_bits(aov.depth[i]);
+    if (!prefix.empty()) {
+        const sampling::Film::PrefixData &q = prefix[i];
+        for (float v : q.cur_mean) w[k++] = float_bits(v);
+        for (float v : q.prev_mean) w[k++] = float_bits(v);
+        w[k++] = q.cur_accepted;
+        w[k++] = q.prev_accepted;
+    }
 }
 
 /// Unpacks the layout's words into pixel `i`; `aov` already has the kept AOVs' sizes.
-void unpack(const uint32_t *w, PixelData &p, sampling::Film::AovData &aov, size_t i) {
+void unpack(const uint32_t *w, PixelData &p, sampling::Film::AovData &aov,
+            std::vector<sampling::Film::PrefixData> &prefix, size_t i) {
     size_t k = 3;  // skip the mean
     for (double *buf : {p.sum, p.half_sum})
         for (int c = 0; c < 3; ++c) {
@@ -108,6 +124,13 @@ void unpack(const uint32_t *w, PixelData &p, sampling::Film::AovData &aov, size_
     if (!aov.normal.empty())
         for (float &v : aov.normal[i]) v = bits_float(w[k++]);
     if (!aov.depth.empty()) aov.depth[i] = bits_float(w[k++]);
+    if (!prefix.empty()) {
+        sampling::Film::PrefixData &q = prefix[i];
+        for (float &v : q.cur_mean) v = bits_float(w[k++]);
+        for (float &v : q.prev_mean) v = bits_float(w[k++]);
+        q.cur_accepted = w[k++];
+        q.prev_accepted = w[k++];
+    }
 }
 
 /// The AOVs whose channels the file has; part of an AOV's channels is a damaged file.
@@ -131,7 +154,7 @@ sampling::AovSet aovs_in(const OIIO::ImageSpec &spec, const std::string &path) {
 
 void write_checkpoint(const std::string &path, const sampling::Film &film,
                       const CheckpointState &state) {
-    const std::vector<Channel> layout = channel_layout(film.aovs());
+    const std::vector<Channel> layout = channel_layout(film.aovs(), film.keeps_prefix());
     const int nch = int(layout.size());
     OIIO::ImageSpec spec(int(film.width()), int(film.height()), nch, OIIO::TypeDesc::FLOAT);
     spec.channelnames.clear();
@@ -152,7 +175,7 @@ void write_checkpoint(const std::string &path, const sampling::Film &film,
     const std::vector<PixelData> &px = film.raw_pixels();
     std::vector<uint32_t> words(px.size() * size_t(nch));
     for (size_t i = 0; i < px.size(); ++i)
-        pack(px[i], film.raw_aovs(), i, &words[i * size_t(nch)]);
+        pack(px[i], film.raw_aovs(), film.raw_prefix(), i, &words[i * size_t(nch)]);
 
     write_atomically(path, [&](const std::string &tmp) {
         auto out = OIIO::ImageOutput::create("exr");
@@ -191,7 +214,7 @@ CheckpointState read_checkpoint(const std::string &path, sampling::Film &film) {
         throw SceneError(path + ":0: checkpoint is " + std::to_string(spec.width) + "x" +
                          std::to_string(spec.height) + ", the render is " +
                          std::to_string(film.width()) + "x" + std::to_string(film.height()));
-    const std::vector<Channel> layout = channel_layout(aovs);
+    const std::vector<Channel> layout = channel_layout(aovs, film.keeps_prefix());
     // The file may store channels in another order (OpenEXR sorts them): map by name.
     std::vector<int> file_index(layout.size(), -1);
     for (size_t c = 0; c < layout.size(); ++c)
@@ -210,16 +233,23 @@ CheckpointState read_checkpoint(const std::string &path, sampling::Film &film) {
     if (aovs.has(sampling::Aov::Albedo)) aov.albedo.resize(px.size());
     if (aovs.has(sampling::Aov::Normal)) aov.normal.resize(px.size());
     if (aovs.has(sampling::Aov::Depth)) aov.depth.resize(px.size());
+    std::vector<sampling::Film::PrefixData> prefix(film.keeps_prefix() ? px.size() : 0);
     std::vector<uint32_t> w(layout.size());
     for (size_t i = 0; i < px.size(); ++i) {
         for (size_t c = 0; c < layout.size(); ++c)
             w[c] = file_words[i * size_t(spec.nchannels) + size_t(file_index[c])];
-        unpack(w.data(), px[i], aov, i);
+        unpack(w.data(), px[i], aov, prefix, i);
         // A checkpoint is trusted to resume hours of work: reject values no render writes
         // rather than carry NaN or impossible counts into the image.
         const PixelData &q = px[i];
         bool ok = q.accepted <= q.taken && q.half_accepted <= q.accepted && q.hits <= q.accepted;
         for (int c = 0; c < 3; ++c) ok = ok && std::isfinite(q.sum[c]) && std::isfinite(q.half_sum[c]);
+        if (!prefix.empty()) {
+            const sampling::Film::PrefixData &r = prefix[i];
+            ok = ok && r.prev_accepted <= r.cur_accepted && r.cur_accepted <= q.accepted;
+            for (int c = 0; c < 3; ++c)
+                ok = ok && std::isfinite(r.cur_mean[c]) && std::isfinite(r.prev_mean[c]);
+        }
         if (!ok)
             throw SceneError(path + ":0: checkpoint pixel (" + std::to_string(i % size_t(spec.width)) +
                              ", " + std::to_string(i / size_t(spec.width)) +
@@ -248,7 +278,7 @@ CheckpointState read_checkpoint(const std::string &path, sampling::Film &film) {
     uint64_t nan = uint64_t(std::min(nan_d, 1e18));
     st.scene = spec.get_string_attribute("tessera:scene");
     st.settings = spec.get_string_attribute("tessera:settings");
-    film.restore(std::move(px), std::move(aov), nan);
+    film.restore(std::move(px), std::move(aov), nan, std::move(prefix));
     return st;
 }
 

@@ -64,7 +64,8 @@ void write_pfm(const std::string &path, uint32_t w, uint32_t h, const std::vecto
 class SamplerRun {
   public:
     SamplerRun(const Scene &scene, const SamplerSpec &spec, const ConvergeOptions &opt)
-        : film_(uint32_t(scene.settings.width), uint32_t(scene.settings.height)),
+        : film_(uint32_t(scene.settings.width), uint32_t(scene.settings.height), {},
+                keeps_prefix(spec)),
           integrator_(scene, scene.settings.seed, scene.settings.max_depth),
           options_(scheduler_options(scene, spec, opt.threads, true)) {
         // Time is the budget: no sample cap unless --spp gives one.

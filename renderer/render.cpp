@@ -105,6 +105,7 @@ std::string SamplerSpec::describe() const {
         if (refine_factor != 0.5) os << ",refine-factor=" << refine_factor;
         if (refine_spp_ratio != 8) os << ",refine-spp-ratio=" << refine_spp_ratio;
         if (refine_floor_ratio != 1.5) os << ",refine-floor-ratio=" << refine_floor_ratio;
+        if (prefix_error) os << ",prefix-error=1";
     }
     return os.str();
 }
@@ -130,6 +131,7 @@ SamplerSpec parse_sampler_spec(const std::string &text) {
         spec.refine_factor = p.get("refine-factor");
         spec.refine_spp_ratio = p.get("refine-spp-ratio");
         spec.refine_floor_ratio = p.get("refine-floor-ratio");
+        spec.prefix_error = p.get("prefix-error") != 0;
     }
     return spec;
 }
@@ -174,6 +176,10 @@ void apply_refinement(sched::AdaptiveOptions &o, const SamplerSpec &sampler) {
     o.refine_floor_ratio = sampler.refine_floor_ratio;
     if (o.refine_target && !sampler.error)
         o.error_target = kDefaultRefineStartTarget;
+}
+
+bool keeps_prefix(const SamplerSpec &sampler) {
+    return sampler.name == "adaptive" && sampler.prefix_error;
 }
 
 sched::AdaptiveStats render_scene(const Scene &scene, sampling::Film &film, uint32_t threads,
@@ -264,7 +270,8 @@ RenderReport run_render(const RenderOptions &opt) {
                              opt.overrides.aovs->describe() + ")");
         aovs = stored;
     }
-    sampling::Film film(uint32_t(scene->settings.width), uint32_t(scene->settings.height), aovs);
+    sampling::Film film(uint32_t(scene->settings.width), uint32_t(scene->settings.height), aovs,
+                        keeps_prefix(sampler));
     if (opt.min_spp) sampler.min_spp = *opt.min_spp;
     if (opt.error) sampler.error = *opt.error;
     sched::AdaptiveOptions so = scheduler_options(*scene, sampler, opt.threads, opt.quiet);

@@ -51,6 +51,10 @@ struct SamplerSpec {
     double refine_factor = 0.5;  ///< adaptive:refine-factor
     double refine_spp_ratio = 8;    ///< adaptive:refine-spp-ratio
     double refine_floor_ratio = 1.5;  ///< adaptive:refine-floor-ratio
+    /// adaptive:prefix-error=1: pixel errors compare the mean with the mean of the pixel's
+    /// first 2^k samples instead of the half buffer (sampling/adaptive_error.h); the film then
+    /// keeps prefix snapshots (keeps_prefix).
+    bool prefix_error = false;
     /// One line, e.g. "adaptive:error=0.002,min-spp=16".
     std::string describe() const;
 };
@@ -121,6 +125,10 @@ sched::AdaptiveOptions scheduler_options(const Scene &scene, const SamplerSpec &
 /// budget). Refining without an explicit error starts at kDefaultRefineStartTarget. Other
 /// samplers are left as they are.
 void apply_refinement(sched::AdaptiveOptions &o, const SamplerSpec &sampler);
+
+/// True when the film of a render with `sampler` must keep prefix snapshots
+/// (sampling::Film keep_prefix): an adaptive sampler with prefix-error=1.
+bool keeps_prefix(const SamplerSpec &sampler);
 
 /// Renders `scene` into `film` with uniform sampling to the scene's spp (tests, benchmarks);
 /// `cancel` may stop it early.

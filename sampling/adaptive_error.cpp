@@ -2,6 +2,7 @@
 #include "sampling/adaptive_error.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 
@@ -13,17 +14,31 @@ constexpr double kInf = std::numeric_limits<double>::infinity();
 }  // namespace
 
 float pixel_error(const PixelStats &st, uint32_t min_samples) {
-    // Both halves must be non-empty: with no even sample I == A and the error would read 0.
-    if (st.accepted < std::max<uint32_t>(min_samples, 2) || st.half_accepted == 0 ||
-        st.half_accepted >= st.accepted)
+    if (st.accepted < std::max<uint32_t>(min_samples, 2))
         return kInfF;
+    // The second estimate A and the weight of |I - A|: the half buffer as it is, or the prefix
+    // scaled to the half buffer's spread (see the header).
+    const std::array<double, 3> *a = &st.half_mean;
+    double k = 1;
+    if (st.has_prefix) {
+        // m < n, or I == A and the error would read 0 whatever the noise.
+        if (st.prefix_accepted == 0 || st.prefix_accepted >= st.accepted)
+            return kInfF;
+        const double m = st.prefix_accepted, n = st.accepted;
+        k = std::sqrt(m / (n - m));
+        a = &st.prefix_mean;
+    } else if (st.half_accepted == 0 || st.half_accepted >= st.accepted) {
+        // Both halves must be non-empty: with no even sample I == A and the error would read 0.
+        return kInfF;
+    }
     double num = 0, sum = 0, abs_i = 0, abs_a = 0;
     for (int c = 0; c < 3; ++c) {
-        num += std::abs(st.mean[c] - st.half_mean[c]);
+        num += std::abs(st.mean[c] - (*a)[c]);
         sum += st.mean[c];
         abs_i += std::abs(st.mean[c]);
-        abs_a += std::abs(st.half_mean[c]);
+        abs_a += std::abs((*a)[c]);
     }
+    num *= k;
     if (num == 0)
         return 0.f;
     // Dammertz et al. 2010, eq. 2. For a black or net-negative mean (signed radiance only) fall

@@ -14,6 +14,23 @@
 //
 // A pixel without an estimate (too few samples) has error +inf; a region containing one has
 // region error +inf and stays open.
+//
+// The prefix estimate (films built with keep_prefix; `adaptive:prefix-error=1`). A is instead
+// the mean of the pixel's first m samples, m the largest power of two <= n/2 (so n/4 < m <=
+// n/2), and |I - A| is weighted by sqrt(m / (n - m)). For independent samples
+// Var(I - A) = sigma^2 (1/m - 1/n), so the weight gives sigma^2 / n, the spread of the half
+// buffer's |I - A|: the same error targets apply. Why: Tessera's per-pixel sequences are
+// Owen-scrambled Sobol points (sampling/sequence.h). The first 2^j samples of a pixel form a
+// (0,j,2)-net in every dimension pair, so the mean of all samples converges much faster than
+// 1/sqrt(n) on smooth integrands, but the odd-index samples are not a net, and their mean
+// converges as 1/sqrt(n): |I - A| then measures the half buffer's own error, not the error of
+// I. On a ramp across the pixel (tests/sampling/test_prefix_error.cpp's case, 384 pixels) the
+// true error fell as n^-1.5 and the half-buffer estimate as n^-0.5, 23x too high at 16 spp and
+// 1400x at 1024; the prefix estimate read 2.6-2.8x the true error throughout (a power-of-two
+// prefix is itself a net, about 2^1.5 less accurate than twice as many samples). On the ground
+// of examples/uneven-outdoor (256-4096 spp, against a 65536-spp reference) the half buffer
+// read 10-20x the true error and only about 1x on the caustics beside it, so it ranked the
+// regions wrongly; the prefix estimate read 0.5-1.03x on both.
 #pragma once
 
 #include <cstdint>
@@ -24,10 +41,13 @@
 namespace tessera::sampling {
 
 /// Dammertz pixel error e_p of one pixel (see the file comment), >= 0, in sqrt(radiance) units.
+/// With stats.has_prefix (a film keeping prefix snapshots) A is the prefix mean, weighted as the
+/// file comment says; otherwise the half buffer.
 ///
 /// Returns +inf when the pixel has no estimate: fewer than max(min_samples, 2) accepted
 /// samples, no accepted odd-index sample (empty half buffer) or no accepted even-index sample
-/// (then I == A and the error would read 0 whatever the noise).
+/// (then I == A and the error would read 0 whatever the noise); with a prefix, no accepted
+/// sample in the prefix or none after it.
 ///
 /// Black pixel: when I_r + I_g + I_b <= 0 the formula has no denominator. If I == A the error
 /// is 0 (e.g. every sample black). Otherwise (possible only with signed radiance, whose even and

@@ -9,9 +9,10 @@
 
 namespace tessera::sampling {
 
-Film::Film(uint32_t width, uint32_t height, AovSet aovs)
+Film::Film(uint32_t width, uint32_t height, AovSet aovs, bool keep_prefix)
     : width_(width), height_(height), aovs_(aovs), pixels_(size_t(width) * height) {
     const size_t n = pixels_.size();
+    if (keep_prefix) prefix_.assign(n, PrefixData{});
     if (aovs_.has(Aov::Albedo)) aov_.albedo.assign(n, Float3{0, 0, 0});
     if (aovs_.has(Aov::Normal)) aov_.normal.assign(n, Float3{0, 0, 0});
     if (aovs_.has(Aov::Depth)) aov_.depth.assign(n, 0.f);
@@ -20,13 +21,27 @@ Film::Film(uint32_t width, uint32_t height, AovSet aovs)
 void Film::add_sample(uint32_t px, uint32_t py, uint32_t sample_index, const Sample &s) {
     PixelData &p = at(px, py);
     ++p.taken;
-    if (!s.radiance.is_finite()) {
+    const bool finite = s.radiance.is_finite();
+    if (finite) {
+        ++p.accepted;
+        for (int c = 0; c < 3; ++c) p.sum[c] += double(s.radiance[c]);
+    }
+    if (!prefix_.empty() && (p.taken & (p.taken - 1)) == 0) {
+        // The count reached a power of two: the current snapshot becomes the previous one.
+        PrefixData &q = prefix_[size_t(py) * width_ + px];
+        const double inv = p.accepted ? 1.0 / p.accepted : 0.0;
+        for (int c = 0; c < 3; ++c) {
+            q.prev_mean[c] = q.cur_mean[c];
+            q.cur_mean[c] = float(p.sum[c] * inv);
+        }
+        q.prev_accepted = q.cur_accepted;
+        q.cur_accepted = p.accepted;
+    }
+    if (!finite) {
         // NOTE: dropped, not zeroed (pbrt-v4 zeroes): see the file comment in film.h.
         nan_count_.fetch_add(1, std::memory_order_relaxed);
         return;
     }
-    ++p.accepted;
-    for (int c = 0; c < 3; ++c) p.sum[c] += double(s.radiance[c]);
     if (sample_index & 1u) {
         ++p.half_accepted;
         for (int c = 0; c < 3; ++c) p.half_sum[c] += double(s.radiance[c]);
@@ -63,6 +78,12 @@ PixelStats Film::pixel_stats(uint32_t px, uint32_t py) const {
         st.mean[c] = p.accepted ? p.sum[c] / p.accepted : 0.0;
         st.half_mean[c] = p.half_accepted ? p.half_sum[c] / p.half_accepted : 0.0;
     }
+    if (!prefix_.empty()) {
+        const PrefixData &q = prefix_[size_t(py) * width_ + px];
+        st.has_prefix = true;
+        st.prefix_accepted = q.prev_accepted;
+        for (int c = 0; c < 3; ++c) st.prefix_mean[c] = double(q.prev_mean[c]);
+    }
     return st;
 }
 
@@ -84,6 +105,7 @@ void Film::clear() {
     std::fill(aov_.albedo.begin(), aov_.albedo.end(), Float3{0, 0, 0});
     std::fill(aov_.normal.begin(), aov_.normal.end(), Float3{0, 0, 0});
     std::fill(aov_.depth.begin(), aov_.depth.end(), 0.f);
+    std::fill(prefix_.begin(), prefix_.end(), PrefixData{});
     nan_count_.store(0, std::memory_order_relaxed);
 }
 
@@ -145,7 +167,8 @@ std::string Film::describe() const {
     return os.str();
 }
 
-void Film::restore(std::vector<PixelData> pixels, AovData aovs, uint64_t nan_count) {
+void Film::restore(std::vector<PixelData> pixels, AovData aovs, uint64_t nan_count,
+                   std::vector<PrefixData> prefix) {
     const size_t n = pixels_.size();
     if (pixels.size() != n)
         throw std::invalid_argument("Film::restore: pixel count does not match the film");
@@ -153,8 +176,13 @@ void Film::restore(std::vector<PixelData> pixels, AovData aovs, uint64_t nan_cou
         aovs.depth.size() != aov_.depth.size())
         throw std::invalid_argument("Film::restore: the AOVs do not match the film's (" +
                                     aovs_.describe() + ")");
+    if (prefix.size() != prefix_.size())
+        throw std::invalid_argument(std::string("Film::restore: the prefix snapshots do not match "
+                                                "the film's (") +
+                                    (keeps_prefix() ? "kept" : "not kept") + ")");
     pixels_ = std::move(pixels);
     aov_ = std::move(aovs);
+    prefix_ = std::move(prefix);
     nan_count_.store(nan_count, std::memory_order_relaxed);
 }
 

@@ -11,6 +11,11 @@
 // own array beside the beauty array, and one that was not asked for costs no memory and no
 // work (issue 7). Beauty: 64 bytes a pixel; albedo and normal add 12 each, depth 4.
 //
+// Prefix snapshots (optional, for the prefix error estimator of sampling/adaptive_error.h): a
+// film built with keep_prefix also records, per pixel, the mean of its first 2^k samples each
+// time its sample count reaches a power of two 2^k, keeping the last two such snapshots (32
+// bytes a pixel, float means). A film without them costs nothing for them.
+//
 // Non-finite radiance: a sample whose radiance has a NaN or Inf component is dropped before it
 // reaches any sum and counted in nan_count(). It still counts as *taken* (sample_count(), the
 // spp layer, and the index the next pass starts at), but not in the mean. pbrt-v4 zeroes such
@@ -39,6 +44,13 @@ struct PixelStats {
     uint32_t accepted = 0;              ///< samples with finite radiance (in `mean`)
     uint32_t half_accepted = 0;         ///< accepted samples with an odd index (in `half_mean`)
     uint32_t hits = 0;                  ///< samples in the AOV means (0 for a film without AOVs)
+    /// True when the film keeps prefix snapshots (Film::keeps_prefix()); then prefix_mean is
+    /// the mean of the accepted samples among the pixel's first 2^(k-1) samples, where 2^k is
+    /// the largest power of two <= taken (so at most half the samples; zero when taken < 2),
+    /// and prefix_accepted how many those were.
+    bool has_prefix = false;
+    std::array<double, 3> prefix_mean{};
+    uint32_t prefix_accepted = 0;
 };
 
 /// Per-pixel sums of a progressive render. add_sample is safe to call concurrently for
@@ -47,8 +59,8 @@ struct PixelStats {
 class Film {
   public:
     /// A film of width x height pixels, all sums zero, keeping the AOVs in `aovs` (default:
-    /// none, beauty only).
-    Film(uint32_t width, uint32_t height, AovSet aovs = {});
+    /// none, beauty only) and, with keep_prefix, the prefix snapshots (see the file comment).
+    Film(uint32_t width, uint32_t height, AovSet aovs = {}, bool keep_prefix = false);
 
     Film(const Film &) = delete;
     Film &operator=(const Film &) = delete;
@@ -57,6 +69,8 @@ class Film {
     uint32_t height() const { return height_; }
     /// The AOVs this film keeps (fixed at construction).
     AovSet aovs() const { return aovs_; }
+    /// True when the film keeps prefix snapshots (fixed at construction).
+    bool keeps_prefix() const { return !prefix_.empty(); }
 
     /// Accumulates sample `sample_index` of pixel (px, py). Odd indices also go to the half
     /// buffer. Non-finite radiance drops the sample (see the file comment). The sample's
@@ -103,13 +117,14 @@ class Film {
 
     /// Film memory per pixel in bytes for a film keeping `aovs`: the beauty data plus the AOV
     /// arrays (the memory limits use it before a film exists).
-    static constexpr size_t bytes_per_pixel_for(AovSet aovs) {
+    static constexpr size_t bytes_per_pixel_for(AovSet aovs, bool keep_prefix = false) {
         return sizeof(PixelData) + (aovs.has(Aov::Albedo) ? sizeof(Float3) : 0) +
                (aovs.has(Aov::Normal) ? sizeof(Float3) : 0) +
-               (aovs.has(Aov::Depth) ? sizeof(float) : 0);
+               (aovs.has(Aov::Depth) ? sizeof(float) : 0) +
+               (keep_prefix ? sizeof(PrefixData) : 0);
     }
     /// Film memory per pixel of this film in bytes (beauty plus its AOVs).
-    size_t bytes_per_pixel() const { return bytes_per_pixel_for(aovs_); }
+    size_t bytes_per_pixel() const { return bytes_per_pixel_for(aovs_, keeps_prefix()); }
 
     /// One readable line: size, memory, samples, dropped samples.
     std::string describe() const;
@@ -124,6 +139,15 @@ class Film {
         uint32_t half_accepted = 0;
         uint32_t hits = 0;               // samples in the AOV running means
     };
+    /// The prefix snapshots of one pixel (films with keep_prefix): the means of its first
+    /// `cur_taken` and `prev_taken` = cur_taken / 2 samples (powers of two; 0: none yet) and
+    /// how many of those were accepted. 32 bytes.
+    struct PrefixData {
+        float cur_mean[3] = {0, 0, 0};
+        float prev_mean[3] = {0, 0, 0};
+        uint32_t cur_accepted = 0;
+        uint32_t prev_accepted = 0;
+    };
     using Float3 = std::array<float, 3>;
     /// The raw AOV running means, row-major, one entry per pixel for each AOV the film keeps
     /// and empty for the others.
@@ -137,10 +161,15 @@ class Film {
     const std::vector<PixelData> &raw_pixels() const { return pixels_; }
     /// Raw AOV means (checkpoint writing). Not thread-safe against add_sample.
     const AovData &raw_aovs() const { return aov_; }
+    /// Raw prefix snapshots, row-major; empty unless keeps_prefix(). Not thread-safe against
+    /// add_sample.
+    const std::vector<PrefixData> &raw_prefix() const { return prefix_; }
     /// Replaces the whole accumulation state (checkpoint resume): `pixels` must hold
     /// width * height entries, and `aovs` that many for each AOV the film keeps and none for
-    /// the others. Throws std::invalid_argument otherwise. Not thread-safe.
-    void restore(std::vector<PixelData> pixels, AovData aovs, uint64_t nan_count);
+    /// the others, and `prefix` that many when the film keeps prefix snapshots (else none).
+    /// Throws std::invalid_argument otherwise. Not thread-safe.
+    void restore(std::vector<PixelData> pixels, AovData aovs, uint64_t nan_count,
+                 std::vector<PrefixData> prefix = {});
 
   private:
 
@@ -153,6 +182,7 @@ class Film {
     AovSet aovs_;
     std::vector<PixelData> pixels_;
     AovData aov_;
+    std::vector<PrefixData> prefix_;
     std::atomic<uint64_t> nan_count_{0};
 };
 

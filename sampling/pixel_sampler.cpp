@@ -58,6 +58,9 @@ std::vector<PluginInfo> progressive_plugins() {
          "refining: no pixel above this x the mean spp (0: no cap)"},
         {"refine-floor-ratio", 1.5, 0, 1e6, false,
          "refining: pixels below the mean spp / this are sampled anyway (0: no floor)"},
+        {"prefix-error", 0, 0, 1, true,
+         "1: pixel error against the mean of the first 2^k samples instead of the half buffer "
+         "(tracks the true error of Tessera's Sobol sequences; see README)"},
     };
     out.push_back(adaptive);
     return out;

@@ -175,3 +175,36 @@ TEST_CASE("a checkpoint in the layout before AOVs were optional reads as all AOV
     check_same_state(film, back);
     std::filesystem::remove(path);
 }
+
+TEST_CASE("checkpoint of a film with prefix snapshots: round trip, and refused without them") {
+    sampling::Film film(13, 7, {}, true);
+    fill(film);
+    std::string path = test::output_dir() + "/checkpoint_prefix.exr";
+    CheckpointState st;
+    st.passes = 2;
+    st.settings = "adaptive:prefix-error=1";
+    write_checkpoint(path, film, st);
+    std::vector<std::string> names = image_channel_names(path);
+    CHECK(names.size() == 19 + 8);
+    CHECK(std::find(names.begin(), names.end(), "prefix.prev.G") != names.end());
+
+    sampling::Film back(13, 7, {}, true);
+    read_checkpoint(path, back);
+    check_same_state(film, back);
+    REQUIRE(back.raw_prefix().size() == film.raw_prefix().size());
+    CHECK(std::memcmp(back.raw_prefix().data(), film.raw_prefix().data(),
+                      film.raw_prefix().size() * sizeof(sampling::Film::PrefixData)) == 0);
+    // Some pixel has both snapshots, so the comparison above compared real values.
+    CHECK(film.pixel_stats(4, 0).prefix_accepted == 2);
+
+    // A checkpoint without snapshots cannot resume a render that needs them.
+    sampling::Film plain(13, 7);
+    fill(plain);
+    std::string plain_path = test::output_dir() + "/checkpoint_no_prefix.exr";
+    write_checkpoint(plain_path, plain, st);
+    sampling::Film needs(13, 7, {}, true);
+    CHECK_THROWS_WITH_AS(read_checkpoint(plain_path, needs),
+                         doctest::Contains("lacks channel prefix.cur.R"), SceneError);
+    std::filesystem::remove(path);
+    std::filesystem::remove(plain_path);
+}

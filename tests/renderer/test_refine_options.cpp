@@ -64,3 +64,17 @@ TEST_CASE("adaptive:refine keys parse; refinement is opt-in") {
     apply_refinement(u, parse_sampler_spec("uniform"));
     CHECK(!u.refine_target);
 }
+
+TEST_CASE("adaptive:prefix-error parses, is recorded in the settings line, and sizes the film") {
+    SamplerSpec plain = parse_sampler_spec("adaptive");
+    CHECK_FALSE(plain.prefix_error);
+    CHECK_FALSE(keeps_prefix(plain));
+    CHECK(plain.describe().find("prefix-error") == std::string::npos);
+    SamplerSpec on = parse_sampler_spec("adaptive:refine=1,prefix-error=1");
+    CHECK(on.prefix_error);
+    CHECK(keeps_prefix(on));
+    CHECK(on.describe().find(",prefix-error=1") != std::string::npos);
+    CHECK_FALSE(keeps_prefix(parse_sampler_spec("uniform")));
+    CHECK_THROWS_AS(parse_sampler_spec("adaptive:prefix-error=2"), SceneError);
+    CHECK_THROWS_AS(parse_sampler_spec("uniform:prefix-error=1"), SceneError);
+}
