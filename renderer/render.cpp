@@ -104,8 +104,10 @@ std::string SamplerSpec::describe() const {
             os << ",refine=" << (*refine ? 1 : 0);
         if (refine_factor != 0.5) os << ",refine-factor=" << refine_factor;
         if (refine_spp_ratio != 8) os << ",refine-spp-ratio=" << refine_spp_ratio;
-        if (refine_floor_ratio != 1.5) os << ",refine-floor-ratio=" << refine_floor_ratio;
-        if (prefix_error) os << ",prefix-error=1";
+        if (refine_floor_ratio != 3) os << ",refine-floor-ratio=" << refine_floor_ratio;
+        // Only when it differs from its default (on exactly when refining).
+        if (prefix_error != refine.value_or(false))
+            os << ",prefix-error=" << (prefix_error ? 1 : 0);
     }
     return os.str();
 }
@@ -131,7 +133,8 @@ SamplerSpec parse_sampler_spec(const std::string &text) {
         spec.refine_factor = p.get("refine-factor");
         spec.refine_spp_ratio = p.get("refine-spp-ratio");
         spec.refine_floor_ratio = p.get("refine-floor-ratio");
-        spec.prefix_error = p.get("prefix-error") != 0;
+        spec.prefix_error = p.is_set("prefix-error") ? p.get("prefix-error") != 0
+                                                     : spec.refine.value_or(false);
     }
     return spec;
 }

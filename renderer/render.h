@@ -50,10 +50,10 @@ struct SamplerSpec {
     std::optional<bool> refine;
     double refine_factor = 0.5;  ///< adaptive:refine-factor
     double refine_spp_ratio = 8;    ///< adaptive:refine-spp-ratio
-    double refine_floor_ratio = 1.5;  ///< adaptive:refine-floor-ratio
+    double refine_floor_ratio = 3;  ///< adaptive:refine-floor-ratio
     /// adaptive:prefix-error=1: pixel errors compare the mean with the mean of the pixel's
     /// first 2^k samples instead of the half buffer (sampling/adaptive_error.h); the film then
-    /// keeps prefix snapshots (keeps_prefix).
+    /// keeps prefix snapshots (keeps_prefix). Unset: on exactly when refining (refine=1).
     bool prefix_error = false;
     /// One line, e.g. "adaptive:error=0.002,min-spp=16".
     std::string describe() const;

@@ -56,11 +56,12 @@ std::vector<PluginInfo> progressive_plugins() {
         {"refine-factor", 0.5, 0.01, 0.99, false, "error target multiplier per refinement"},
         {"refine-spp-ratio", 8, 0, 1e6, false,
          "refining: no pixel above this x the mean spp (0: no cap)"},
-        {"refine-floor-ratio", 1.5, 0, 1e6, false,
+        {"refine-floor-ratio", 3, 0, 1e6, false,
          "refining: pixels below the mean spp / this are sampled anyway (0: no floor)"},
         {"prefix-error", 0, 0, 1, true,
          "1: pixel error against the mean of the first 2^k samples instead of the half buffer "
-         "(tracks the true error of Tessera's Sobol sequences; see README)"},
+         "(tracks the true error of Tessera's Sobol sequences; see README); unset: 1 exactly "
+         "when refine=1"},
     };
     out.push_back(adaptive);
     return out;

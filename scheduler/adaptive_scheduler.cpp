@@ -212,15 +212,22 @@ struct AdaptiveScheduler::RenderContext {
     std::atomic<uint64_t> film_samples{0};
     uint64_t pixels = 1;
     // The cap for the film's current mean: ratio x max(min_spp, mean spp), never lower than
-    // before, at most max_spp. Called under level_mutex or with no worker running.
+    // before, at most max_spp; then the floor. Called at the start, at every refinement and at
+    // every quadrant rebuild, from any thread (a CAS max), so that the cap follows the mean: a
+    // cap frozen at the last refinement let the easy regions overtake the capped hard ones
+    // during a long level.
     void raise_cap(const AdaptiveOptions &o) {
-        if (!(o.refine_spp_ratio > 0))
-            return;
-        const double mean = double(film_samples.load(std::memory_order_relaxed)) / double(pixels);
-        double cap = o.refine_spp_ratio * std::max(double(std::max(o.min_spp, 1u)), mean);
-        cap = std::min(cap, o.max_spp ? double(o.max_spp) : 4e9);
-        pixel_cap.store(std::max(pixel_cap.load(std::memory_order_relaxed), uint32_t(cap)),
-                        std::memory_order_relaxed);
+        if (o.refine_spp_ratio > 0) {
+            const double mean =
+                double(film_samples.load(std::memory_order_relaxed)) / double(pixels);
+            double cap = o.refine_spp_ratio * std::max(double(std::max(o.min_spp, 1u)), mean);
+            cap = std::min(cap, o.max_spp ? double(o.max_spp) : 4e9);
+            const uint32_t c = uint32_t(cap);
+            uint32_t cur = pixel_cap.load(std::memory_order_relaxed);
+            while (c > cur &&
+                   !pixel_cap.compare_exchange_weak(cur, c, std::memory_order_relaxed)) {
+            }
+        }
         raise_floor(o);
     }
     // The floor for the film's current mean: mean / refine_floor_ratio, at most the cap (when
@@ -712,7 +719,7 @@ bool AdaptiveScheduler::rebuild_quadrant(int q, RenderContext &ctx, WorkerState 
             }
         }
     if (refine_)
-        ctx.raise_floor(options_);
+        ctx.raise_cap(options_);  // and the floor
     sampling::RegionTreeParams params;
     params.target = refine_ ? target_at(level) : options_.error_target;
     params.split_factor = options_.split_factor;

@@ -70,7 +70,7 @@
 // (16, 32, 64, then +max_pass_spp) when that is below the pass's target, so that a reopened
 // region resumes gradually; TileVisit::count_after may then be below `target`. The passes run
 // to twice pass_count when max_spp caps them, so pixels reopened late can still reach it.
-// Two guards tie the allocation to the image mean (set at the start and at each refinement):
+// Two guards tie the allocation to the image mean (updated at every quadrant rebuild):
 // no pixel takes more than refine_spp_ratio x the mean spp (a region that cannot reach the
 // target -- fireflies -- would otherwise swallow the budget; a quadrant pass that took no sample
 // counts as complete), and pixels below mean / refine_floor_ratio (updated at every rebuild)
@@ -131,7 +131,7 @@ struct AdaptiveOptions {
     /// No refinement below this target: the render then stops as converged.
     double refine_min_target = 1e-7;
     /// Refining, no pixel takes more than this many times the image's mean samples per pixel
-    /// (at least min_spp), as of the last refinement; a quadrant whose pass took no sample
+    /// (at least min_spp), as of the last quadrant rebuild; a quadrant whose pass took no sample
     /// (every open pixel capped) counts as complete. Keeps a region that cannot reach the
     /// target (fireflies; a narrow leaf in a tile of frozen errors) from taking the whole
     /// budget. 0: no cap.
@@ -140,7 +140,7 @@ struct AdaptiveOptions {
     /// quadrant rebuild; never above the cap) are sampled even inside completed regions: the
     /// Dammertz estimate of a few dozen samples can call a region complete before it showed a
     /// rare bright path (a small light's silhouette, a caustic). 0: no floor.
-    double refine_floor_ratio = 1.5;
+    double refine_floor_ratio = 3;
     bool adaptive = true;        ///< false: uniform passes (every pixel active)
     bool deterministic = false;  ///< barrier between passes: bit-identical for any thread count
     uint32_t threads = 0;        ///< worker threads (0: TBB's default concurrency)

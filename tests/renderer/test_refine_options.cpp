@@ -15,7 +15,7 @@ TEST_CASE("adaptive:refine keys parse; refinement is opt-in") {
     // Unset: no refinement, the fixed default target.
     SamplerSpec plain = parse_sampler_spec("adaptive");
     CHECK(!plain.refine);
-    CHECK(plain.refine_floor_ratio == 1.5);
+    CHECK(plain.refine_floor_ratio == 3);
     sched::AdaptiveOptions o = base;
     apply_refinement(o, plain);
     CHECK(!o.refine_target);
@@ -30,7 +30,7 @@ TEST_CASE("adaptive:refine keys parse; refinement is opt-in") {
     CHECK(o.error_target == kDefaultRefineStartTarget);
     CHECK(o.refine_factor == 0.5);
     CHECK(o.refine_spp_ratio == 8);
-    CHECK(o.refine_floor_ratio == 1.5);
+    CHECK(o.refine_floor_ratio == 3);
 
     // An explicit error with refine=1 is the start target; the other keys are passed on.
     SamplerSpec both = parse_sampler_spec(
@@ -65,15 +65,30 @@ TEST_CASE("adaptive:refine keys parse; refinement is opt-in") {
     CHECK(!u.refine_target);
 }
 
-TEST_CASE("adaptive:prefix-error parses, is recorded in the settings line, and sizes the film") {
+TEST_CASE("adaptive:prefix-error: on by default exactly when refining, recorded when not") {
     SamplerSpec plain = parse_sampler_spec("adaptive");
     CHECK_FALSE(plain.prefix_error);
     CHECK_FALSE(keeps_prefix(plain));
     CHECK(plain.describe().find("prefix-error") == std::string::npos);
-    SamplerSpec on = parse_sampler_spec("adaptive:refine=1,prefix-error=1");
-    CHECK(on.prefix_error);
-    CHECK(keeps_prefix(on));
-    CHECK(on.describe().find(",prefix-error=1") != std::string::npos);
+
+    SamplerSpec refine = parse_sampler_spec("adaptive:refine=1");
+    CHECK(refine.prefix_error);
+    CHECK(keeps_prefix(refine));
+    CHECK(refine.describe().find("prefix-error") == std::string::npos);
+
+    SamplerSpec refine_half = parse_sampler_spec("adaptive:refine=1,prefix-error=0");
+    CHECK_FALSE(refine_half.prefix_error);
+    CHECK_FALSE(keeps_prefix(refine_half));
+    CHECK(refine_half.describe().find(",prefix-error=0") != std::string::npos);
+
+    SamplerSpec prefix = parse_sampler_spec("adaptive:prefix-error=1");
+    CHECK(prefix.prefix_error);
+    CHECK(keeps_prefix(prefix));
+    CHECK(prefix.describe().find(",prefix-error=1") != std::string::npos);
+    // The settings line round-trips (checkpoints compare it).
+    CHECK(parse_sampler_spec(prefix.describe()).prefix_error);
+    CHECK_FALSE(parse_sampler_spec(refine_half.describe()).prefix_error);
+
     CHECK_FALSE(keeps_prefix(parse_sampler_spec("uniform")));
     CHECK_THROWS_AS(parse_sampler_spec("adaptive:prefix-error=2"), SceneError);
     CHECK_THROWS_AS(parse_sampler_spec("uniform:prefix-error=1"), SceneError);

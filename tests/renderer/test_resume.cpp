@@ -47,7 +47,8 @@ TEST_CASE("deterministic resume: 2 passes + checkpoint + resume to 5 == 5 passes
     fs::path dir = fs::path(test::output_dir()) / "resume";
     fs::create_directories(dir);
     std::ofstream(dir / "scene.pbrt") << kScene;
-    for (const char *sampler : {"adaptive:error=0.0005", "uniform"}) {
+    for (const char *sampler :
+         {"adaptive:error=0.0005", "adaptive:error=0.0005,prefix-error=1", "uniform"}) {
         INFO("sampler " << sampler);
         RenderOptions base;
         base.scene = (dir / "scene.pbrt").string();
