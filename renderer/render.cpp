@@ -102,9 +102,11 @@ std::string SamplerSpec::describe() const {
         // Only when given: checkpoints compare this line, and older ones do not have it.
         if (refine)
             os << ",refine=" << (*refine ? 1 : 0);
-        if (refine_factor != 0.5) os << ",refine-factor=" << refine_factor;
-        if (refine_spp_ratio != 8) os << ",refine-spp-ratio=" << refine_spp_ratio;
-        if (refine_floor_ratio != 3) os << ",refine-floor-ratio=" << refine_floor_ratio;
+        const sched::AdaptiveOptions d;  // the defaults, left out of the line
+        if (refine_factor != d.refine_factor) os << ",refine-factor=" << refine_factor;
+        if (refine_spp_ratio != d.refine_spp_ratio) os << ",refine-spp-ratio=" << refine_spp_ratio;
+        if (refine_floor_ratio != d.refine_floor_ratio)
+            os << ",refine-floor-ratio=" << refine_floor_ratio;
         // Only when it differs from its default (on exactly when refining).
         if (prefix_error != refine.value_or(false))
             os << ",prefix-error=" << (prefix_error ? 1 : 0);

@@ -48,9 +48,12 @@ struct SamplerSpec {
     /// adaptive:refine=0|1; unset: off (opt-in, see apply_refinement and the note of the
     /// adaptive issue: it helps some scenes and hurts others).
     std::optional<bool> refine;
-    double refine_factor = 0.5;  ///< adaptive:refine-factor
-    double refine_spp_ratio = 8;    ///< adaptive:refine-spp-ratio
-    double refine_floor_ratio = 3;  ///< adaptive:refine-floor-ratio
+    // The refinement keys default to the scheduler's own defaults (the plugin registry in
+    // sampling/pixel_sampler.cpp repeats them; a test checks that they agree).
+    // adaptive:refine-factor, refine-spp-ratio, refine-floor-ratio.
+    double refine_factor = sched::AdaptiveOptions{}.refine_factor;
+    double refine_spp_ratio = sched::AdaptiveOptions{}.refine_spp_ratio;
+    double refine_floor_ratio = sched::AdaptiveOptions{}.refine_floor_ratio;
     /// adaptive:prefix-error=1: pixel errors compare the mean with the mean of the pixel's
     /// first 2^k samples instead of the half buffer (sampling/adaptive_error.h); the film then
     /// keeps prefix snapshots (keeps_prefix). Unset: on exactly when refining (refine=1).

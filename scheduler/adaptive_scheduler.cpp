@@ -211,39 +211,28 @@ struct AdaptiveScheduler::RenderContext {
     std::atomic<uint32_t> pixel_floor{0};
     std::atomic<uint64_t> film_samples{0};
     uint64_t pixels = 1;
-    // The cap for the film's current mean: ratio x max(min_spp, mean spp), never lower than
-    // before, at most max_spp; then the floor. Called at the start, at every refinement and at
-    // every quadrant rebuild, from any thread (a CAS max), so that the cap follows the mean: a
-    // cap frozen at the last refinement let the easy regions overtake the capped hard ones
-    // during a long level.
-    void raise_cap(const AdaptiveOptions &o) {
-        if (o.refine_spp_ratio > 0) {
-            const double mean =
-                double(film_samples.load(std::memory_order_relaxed)) / double(pixels);
-            double cap = o.refine_spp_ratio * std::max(double(std::max(o.min_spp, 1u)), mean);
-            cap = std::min(cap, o.max_spp ? double(o.max_spp) : 4e9);
-            const uint32_t c = uint32_t(cap);
-            uint32_t cur = pixel_cap.load(std::memory_order_relaxed);
-            while (c > cur &&
-                   !pixel_cap.compare_exchange_weak(cur, c, std::memory_order_relaxed)) {
-            }
-        }
-        raise_floor(o);
-    }
-    // The floor for the film's current mean: mean / refine_floor_ratio, at most the cap (when
-    // there is one), never lower than before. Called at every rebuild, from any thread, so
-    // that the floor follows the mean between refinements (the hard regions may hold the
-    // level open for most of the budget).
-    void raise_floor(const AdaptiveOptions &o) {
-        if (!(o.refine_floor_ratio > 0))
-            return;
+    // The guards for the film's current mean spp, never lower than before (a CAS max, so any
+    // thread may call it): the cap ratio x max(min_spp, mean), at most max_spp, then the floor
+    // mean / floor_ratio, at most the cap. Called at the start and at every quadrant rebuild
+    // (which is also where refinements happen), so that both follow the mean: a cap frozen at
+    // the last refinement let the easy regions overtake the capped hard ones during a long
+    // level, and a frozen floor let early-stopped pixels fall far behind.
+    void raise_guards(const AdaptiveOptions &o) {
         const double mean = double(film_samples.load(std::memory_order_relaxed)) / double(pixels);
-        double floor = mean / o.refine_floor_ratio;
-        if (o.refine_spp_ratio > 0)
-            floor = std::min(floor, double(pixel_cap.load(std::memory_order_relaxed)));
-        const uint32_t f = uint32_t(floor);
-        uint32_t cur = pixel_floor.load(std::memory_order_relaxed);
-        while (f > cur && !pixel_floor.compare_exchange_weak(cur, f, std::memory_order_relaxed)) {
+        auto raise = [](std::atomic<uint32_t> &a, uint32_t v) {
+            uint32_t cur = a.load(std::memory_order_relaxed);
+            while (v > cur && !a.compare_exchange_weak(cur, v, std::memory_order_relaxed)) {
+            }
+        };
+        if (o.refine_spp_ratio > 0) {
+            double cap = o.refine_spp_ratio * std::max(double(std::max(o.min_spp, 1u)), mean);
+            raise(pixel_cap, uint32_t(std::min(cap, o.max_spp ? double(o.max_spp) : 4e9)));
+        }
+        if (o.refine_floor_ratio > 0) {
+            double floor = mean / o.refine_floor_ratio;
+            if (o.refine_spp_ratio > 0)
+                floor = std::min(floor, double(pixel_cap.load(std::memory_order_relaxed)));
+            raise(pixel_floor, uint32_t(floor));
         }
     }
     std::unique_ptr<AdaptiveProgress> progress;
@@ -719,7 +708,7 @@ bool AdaptiveScheduler::rebuild_quadrant(int q, RenderContext &ctx, WorkerState 
             }
         }
     if (refine_)
-        ctx.raise_cap(options_);  // and the floor
+        ctx.raise_guards(options_);
     sampling::RegionTreeParams params;
     params.target = refine_ ? target_at(level) : options_.error_target;
     params.split_factor = options_.split_factor;
@@ -761,7 +750,6 @@ bool AdaptiveScheduler::rebuild_quadrant(int q, RenderContext &ctx, WorkerState 
             // lower the target and reopen every quadrant until it is rebuilt against it.
             ++ctx.level;
             ++ctx.refinements;
-            ctx.raise_cap(options_);
             mask = ctx.nonempty_mask;
             if (ctx.progress)
                 ctx.progress->set_target(target_at(ctx.level));
@@ -970,7 +958,7 @@ AdaptiveStats AdaptiveScheduler::render(const std::atomic<bool> *cancel) {
         for (int q = 0; q < 4; ++q)
             quadrants_[size_t(q)]->pass_samples.store(0);
         if (refine_)
-            ctx.raise_cap(options_);
+            ctx.raise_guards(options_);
         if (adaptive_) {
             // Allocate and touch every rebuild buffer now (both tree copies' summed-area tables
             // and the error image), so that page faults do not land inside the timed,
