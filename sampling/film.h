@@ -139,9 +139,10 @@ class Film {
         uint32_t half_accepted = 0;
         uint32_t hits = 0;               // samples in the AOV running means
     };
-    /// The prefix snapshots of one pixel (films with keep_prefix): the means of its first
-    /// `cur_taken` and `prev_taken` = cur_taken / 2 samples (powers of two; 0: none yet) and
-    /// how many of those were accepted. 32 bytes.
+    /// The prefix snapshots of one pixel (films with keep_prefix): the means of the accepted
+    /// samples among its first 2^k and first 2^(k-1) samples, 2^k the largest power of two
+    /// <= taken (zero before the count reaches them), and how many of those were accepted.
+    /// 32 bytes.
     struct PrefixData {
         float cur_mean[3] = {0, 0, 0};
         float prev_mean[3] = {0, 0, 0};
