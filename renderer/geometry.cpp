@@ -666,8 +666,8 @@ void Geometry::fill_hit(const Ray &ray, float t, unsigned geom_id, unsigned prim
         // Quadrics compute their hit from the ray in their group's space.
         Vec3f o = ray.o, d = ray.d;
         if (inst) {
-            o = inst->inverse().point(o);
-            d = inst->inverse().vector(d);
+            o = inst->inverse_point(o);
+            d = inst->inverse_vector(d);
         }
         fill_quadric(*g->quadrics[size_t(rec.index)], o + d * si.t, si);
     }

@@ -110,7 +110,21 @@ SpotLight::SpotLight(const Transform &render_from_light, Rgb intensity, float co
       p_(render_from_light.point({0, 0, 0})),
       I_(intensity),
       cos_falloff_start_(cos_falloff_start),
-      cos_falloff_end_(cos_falloff_end) {}
+      cos_falloff_end_(cos_falloff_end) {
+    // M^T M = s^2 I, i.e. the columns are orthogonal and of one length.
+    const Mat4 &m = render_from_light.matrix();
+    double g[3][3];
+    for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j)
+            g[i][j] = m.m[0][i] * m.m[0][j] + m.m[1][i] * m.m[1][j] + m.m[2][i] * m.m[2][j];
+    const double s2 = g[0][0];
+    bool rigid = s2 > 0 && m.m[3][0] == 0 && m.m[3][1] == 0 && m.m[3][2] == 0;
+    for (int i = 0; i < 3 && rigid; ++i)
+        for (int j = 0; j < 3; ++j)
+            rigid = rigid && std::abs(g[i][j] - (i == j ? s2 : 0.0)) <= 1e-6 * s2;
+    rigid_ = rigid;
+    if (rigid_) axis_ = normalize(render_from_light.vector({0, 0, 1}));
+}
 
 Rgb SpotLight::intensity(Vec3f w_light) const {
     return I_ * smooth_step(cos_theta(w_light), cos_falloff_end_, cos_falloff_start_);
@@ -123,9 +137,11 @@ std::optional<LightLiSample> SpotLight::sample_li(const LightSampleContext &ctx,
         return std::nullopt;
     LightLiSample s;
     s.wi = d / std::sqrt(d2);
-    // The falloff is evaluated in light space, as pbrt-v4 does (it matters for scaled lights).
-    Vec3f w_light = normalize(render_from_light_.inverse().vector(-s.wi));
-    s.L = intensity(w_light) / d2;
+    // The falloff is evaluated in light space, as pbrt-v4 does (it matters for sheared or
+    // non-uniformly scaled lights); for the others the render-space axis gives the same cosine.
+    const float cos_l = rigid_ ? dot(axis_, -s.wi)
+                               : cos_theta(normalize(render_from_light_.inverse_vector(-s.wi)));
+    s.L = I_ * (smooth_step(cos_l, cos_falloff_end_, cos_falloff_start_) / d2);
     if (s.L.is_black())
         return std::nullopt;
     s.pdf = 1.f;
@@ -273,7 +289,7 @@ std::optional<LightLiSample> ImageInfiniteLight::sample_li(const LightSampleCont
 }
 
 float ImageInfiniteLight::pdf_li(const LightSampleContext &, Vec3f wi, Vec3f, Vec3f) const {
-    Vec3f w_light = normalize(render_from_light_.inverse().vector(wi));
+    Vec3f w_light = normalize(render_from_light_.inverse_vector(wi));
     Vec2f uv = uv_from_direction(mapping_, w_light);
     float map_pdf = distribution_.pdf(uv);
     if (mapping_ == Mapping::EqualArea)
@@ -285,7 +301,7 @@ float ImageInfiniteLight::pdf_li(const LightSampleContext &, Vec3f wi, Vec3f, Ve
 }
 
 Rgb ImageInfiniteLight::Le(Vec3f dir) const {
-    Vec3f w_light = normalize(render_from_light_.inverse().vector(dir));
+    Vec3f w_light = normalize(render_from_light_.inverse_vector(dir));
     return lookup(uv_from_direction(mapping_, w_light));
 }
 

@@ -113,6 +113,11 @@ class SpotLight final : public Light {
     Vec3f p_;
     Rgb I_;
     float cos_falloff_start_, cos_falloff_end_;
+    /// When render_from_light is a rotation (or reflection) times a uniform scale, the cosine
+    /// to the light-space axis is dot(axis_, w) in render space: sample_li skips the inverse
+    /// transform and the second normalisation. False for sheared or non-uniformly scaled lights.
+    bool rigid_ = false;
+    Vec3f axis_;
 };
 
 /// Directional light (pbrt-v4 "distant"): radiance L arriving from direction `w_to_light`.

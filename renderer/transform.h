@@ -88,20 +88,12 @@ class Transform {
     Transform operator*(const Transform &o) const { return Transform(m_ * o.m_, o.inv_ * inv_); }
 
     /// Applies to a point (homogeneous divide when w != 1).
-    Vec3f point(Vec3f p) const {
-        double x = p.x, y = p.y, z = p.z;
-        double xp = m_.m[0][0] * x + m_.m[0][1] * y + m_.m[0][2] * z + m_.m[0][3];
-        double yp = m_.m[1][0] * x + m_.m[1][1] * y + m_.m[1][2] * z + m_.m[1][3];
-        double zp = m_.m[2][0] * x + m_.m[2][1] * y + m_.m[2][2] * z + m_.m[2][3];
-        double wp = m_.m[3][0] * x + m_.m[3][1] * y + m_.m[3][2] * z + m_.m[3][3];
-        if (wp == 1.0) return {float(xp), float(yp), float(zp)};
-        return {float(xp / wp), float(yp / wp), float(zp / wp)};
-    }
-    Vec3f vector(Vec3f v) const {
-        return {float(m_.m[0][0] * v.x + m_.m[0][1] * v.y + m_.m[0][2] * v.z),
-                float(m_.m[1][0] * v.x + m_.m[1][1] * v.y + m_.m[1][2] * v.z),
-                float(m_.m[2][0] * v.x + m_.m[2][1] * v.y + m_.m[2][2] * v.z)};
-    }
+    Vec3f point(Vec3f p) const { return apply_point(m_, p); }
+    Vec3f vector(Vec3f v) const { return apply_vector(m_, v); }
+    /// inverse().point(p) and inverse().vector(v) without building the inverse Transform (its
+    /// two 4x4 double matrices were copied on every call, which showed up in light sampling).
+    Vec3f inverse_point(Vec3f p) const { return apply_point(inv_, p); }
+    Vec3f inverse_vector(Vec3f v) const { return apply_vector(inv_, v); }
     /// Normals transform by the inverse transpose.
     Vec3f normal(Vec3f n) const {
         return {float(inv_.m[0][0] * n.x + inv_.m[1][0] * n.y + inv_.m[2][0] * n.z),
@@ -138,6 +130,21 @@ class Transform {
     static Transform perspective(double fov_deg, double n, double f);
 
   private:
+    static Vec3f apply_point(const Mat4 &a, Vec3f p) {
+        double x = p.x, y = p.y, z = p.z;
+        double xp = a.m[0][0] * x + a.m[0][1] * y + a.m[0][2] * z + a.m[0][3];
+        double yp = a.m[1][0] * x + a.m[1][1] * y + a.m[1][2] * z + a.m[1][3];
+        double zp = a.m[2][0] * x + a.m[2][1] * y + a.m[2][2] * z + a.m[2][3];
+        double wp = a.m[3][0] * x + a.m[3][1] * y + a.m[3][2] * z + a.m[3][3];
+        if (wp == 1.0) return {float(xp), float(yp), float(zp)};
+        return {float(xp / wp), float(yp / wp), float(zp / wp)};
+    }
+    static Vec3f apply_vector(const Mat4 &a, Vec3f v) {
+        return {float(a.m[0][0] * v.x + a.m[0][1] * v.y + a.m[0][2] * v.z),
+                float(a.m[1][0] * v.x + a.m[1][1] * v.y + a.m[1][2] * v.z),
+                float(a.m[2][0] * v.x + a.m[2][1] * v.y + a.m[2][2] * v.z)};
+    }
+
     Mat4 m_, inv_;
     bool invertible_ = true;
 };

@@ -127,6 +127,52 @@ TEST_CASE("spot light: smoothstep falloff between the cone edges, pbrt-v4 defaul
     CHECK_FALSE(aimed->sample_li({{-5, 2, 0}, {}}, {}));  // behind the spot
 }
 
+TEST_CASE("spot light: the falloff cosine is the light-space one, rigid or scaled transform") {
+    // pbrt-v4: I(w) = I smoothstep(cos_theta(normalize(light_from_render(-wi)))). A rotated,
+    // uniformly scaled light takes the render-space shortcut; a non-uniformly scaled one must
+    // not: with scale (1, 3, 1) the render-space cosine to the axis is visibly different.
+    const float c0 = std::cos(radians(40.f)), c1 = std::cos(radians(25.f));
+    auto reference = [&](const Transform &render_from_light, Vec3f p) {
+        Vec3f apex = render_from_light.point({0, 0, 0});
+        Vec3f wi = normalize(apex - p);
+        Vec3f w_light = normalize(render_from_light.inverse().vector(-wi));
+        float t = clamp((cos_theta(w_light) - c0) / (c1 - c0), 0.f, 1.f);
+        return 2.f * t * t * (3 - 2 * t) / length_squared(apex - p);
+    };
+    const Transform rigid = Transform::translate({1, -2, 0.5f}) *
+                            Transform::rotate(37.0, {1, 2, 3}) * Transform::scale(2, 2, 2);
+    const Transform sheared = Transform::scale(1, 3, 1);
+    int in_band = 0, differs = 0;
+    for (const Transform *tr : {&rigid, &sheared}) {
+        auto spot = make_light(light_desc(
+            "spot", {num_param("float", "scale", {2}), num_param("float", "coneangle", {40}),
+                     num_param("float", "conedeltaangle", {15})},
+            *tr));
+        for (int k = 0; k < 64; ++k) {
+            // Points around the axis at 0..45 degrees, all around it.
+            float th = radians(45.f * float(k % 16) / 15.f), ph = 0.7f * float(k);
+            Vec3f p_light = Vec3f(std::sin(th) * std::cos(ph), std::sin(th) * std::sin(ph),
+                                  std::cos(th)) * 3.f;
+            Vec3f p = tr->point(p_light);
+            float want = reference(*tr, p);
+            auto s = spot->sample_li({p, {}}, {0.5f, 0.5f});
+            float got = s ? s->L.r : 0.f;
+            CHECK(got == doctest::Approx(want).epsilon(1e-4).scale(1e-6));
+            const Vec3f apex = tr->point({0, 0, 0});
+            const float d2 = length_squared(p - apex);
+            if (tr == &sheared && want > 0.f && want < 2.f / d2) {
+                ++in_band;
+                // The render-space cosine would give another value here.
+                Vec3f axis = normalize(tr->vector({0, 0, 1}));
+                float t = clamp((dot(axis, normalize(p - apex)) - c0) / (c1 - c0), 0.f, 1.f);
+                differs += std::abs(t * t * (3 - 2 * t) - want * d2 / 2.f) > 1e-2f;
+            }
+        }
+    }
+    CHECK(in_band > 4);
+    CHECK(differs > 2);
+}
+
 TEST_CASE("distant light: arrives from from - to; illuminance; p_light beyond the scene") {
     auto sun = make_light(light_desc(
         "distant", {num_param("rgb", "L", {1, 2, 3}), num_param("point3", "from", {0, 0, 0}),
