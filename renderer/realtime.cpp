@@ -81,6 +81,8 @@ void run_frames(const RenderOptions &opt, Scene &scene, const SamplerSpec &sampl
         if (opt.orbit_deg != 0)
             scene.camera->set_world_from_camera(
                 orbit_world_from_camera(home, center, opt.orbit_deg * double(k) / frames));
+        // Only the last frame is written out: the others skip their diagnostic layers.
+        plugin->set_diagnostics(k + 1 == frames);
         timing = scheduler.render(*plugin, *source, result, cancel);
         if (timing.cancelled) break;
         rep.frame_ms.push_back(timing.total_ms);
@@ -100,6 +102,10 @@ void run_frames(const RenderOptions &opt, Scene &scene, const SamplerSpec &sampl
         return;
     }
     rep.stats.cancelled = cancel && cancel->load();
+    if (done < frames && !opt.quiet)
+        std::fprintf(stderr, "tessera: interrupted after %u of %u frames: writing frame %u without "
+                             "its diagnostic layers (only the last frame computes them)\n",
+                     done, frames, done);
 
     auto t_out = std::chrono::steady_clock::now();
     const uint32_t w = result.width, h = result.height;

@@ -159,6 +159,20 @@ class PixelSampler {
     /// Sample::first_hit, for its parameters; the source may leave the rest out. Thread-safe,
     /// constant for the instance. Default: everything (a plugin that does not say).
     virtual uint32_t attributes_used() const { return kAttrAll; }
+
+    /// Whether frames write their diagnostic layers (FrameResult::diagnostics; the colour, the
+    /// per-pixel rays and the counts are always written, and do not depend on this). Default
+    /// on. Serial, between frames. The real-time loop turns them off for the frames it does
+    /// not write out: at 1024x1024 they are several megabytes per layer and frame.
+    void set_diagnostics(bool on) { diagnostics_ = on; }
+    bool diagnostics() const { return diagnostics_; }
+
+  protected:
+    /// Plugins' end_frame, when diagnostics are off: drops the layers an earlier frame added.
+    static void drop_diagnostics(FrameResult &r) { r.diagnostics.clear(); }
+
+  private:
+    bool diagnostics_ = true;
 };
 
 /// Progressive modes run on the adaptive scheduler; frame modes on the frame scheduler.

@@ -316,12 +316,16 @@ class FlipSampler final : public PixelSampler {
     }
 
     void end_frame(FrameResult &r) override {
+        if (!diagnostics())
+            drop_diagnostics(r);  // before reset(), which would zero them
         r.reset(width_, height_);
         // Tiles of a cancelled frame that never resolved stay as the result's reset left them.
         r.color.swap(color_out_);
         r.rays.swap(rays_out_);
-        r.layer("active").data.swap(active_out_);
-        r.layer("gradient").data.swap(ratio_out_);
+        if (diagnostics()) {
+            r.layer("active").data.swap(active_out_);
+            r.layer("gradient").data.swap(ratio_out_);
+        }
         r.samples = samples_.load();
         r.rays_total = rays_total_.load();
         shadow_.write(r);

@@ -234,17 +234,23 @@ class JinSampler final : public PixelSampler {
     }
 
     void end_frame(FrameResult &r) override {
+        if (!diagnostics())
+            drop_diagnostics(r);  // before reset(), which would zero them
         r.reset(width_, height_);
-        // NOTE: layer() appends to a vector, which invalidates references to earlier layers:
-        // create every layer first, then take the references.
-        for (const char *name :
-             {"active_subpixels", "active_mask", "test", "attributes", "samples"})
-            r.layer(name);
-        FrameLayer &active = r.layer("active_subpixels");
-        FrameLayer &mask = r.layer("active_mask");
-        FrameLayer &test = r.layer("test");
-        FrameLayer &attributes = r.layer("attributes");
-        FrameLayer &samples = r.layer("samples");
+        // Diagnostic layers (null when off). NOTE: layer() appends to a vector, which
+        // invalidates references to earlier layers: create every layer first, then point.
+        float *active = nullptr, *mask = nullptr, *test = nullptr, *attributes = nullptr,
+              *samples = nullptr;
+        if (diagnostics()) {
+            for (const char *name :
+                 {"active_subpixels", "active_mask", "test", "attributes", "samples"})
+                r.layer(name);
+            active = r.layer("active_subpixels").data.data();
+            mask = r.layer("active_mask").data.data();
+            test = r.layer("test").data.data();
+            attributes = r.layer("attributes").data.data();
+            samples = r.layer("samples").data.data();
+        }
         uint64_t active_total = 0;
         double rays = 0;
         for (size_t i = 0; i < color_.size(); ++i) {
@@ -254,11 +260,13 @@ class JinSampler final : public PixelSampler {
             r.rays[i] = rays_[i];
             const int n = std::popcount(unsigned(mask_[i]));
             active_total += uint64_t(n);
-            active.data[i] = float(n);
-            mask.data[i] = float(mask_[i]);
-            test.data[i] = float(test_[i]);
-            attributes.data[i] = float(disagree_[i]);
-            samples.data[i] = float(samples_[i]);
+            if (active) {
+                active[i] = float(n);
+                mask[i] = float(mask_[i]);
+                test[i] = float(test_[i]);
+                attributes[i] = float(disagree_[i]);
+                samples[i] = float(samples_[i]);
+            }
             r.samples += samples_[i];
             r.nan_samples += nan_[i];
             rays += double(rays_[i]);

@@ -458,14 +458,18 @@ class KimSampler final : public PixelSampler {
 
     void end_frame(FrameResult &r) override {
         // The resolve writes every pixel of every buffer swapped in below: no zeroing needed.
+        if (!diagnostics())
+            drop_diagnostics(r);
         r.reset(width_, height_, /*zero=*/false);
         // Swap, not copy: our buffers get the result's zeroed ones for the next frame.
         r.color.swap(pix_color_);
         r.rays.swap(pix_rays_);
-        r.layer("traced").data.swap(pix_traced_);
-        r.layer("class").data.swap(pix_class_);
-        r.layer("check").data.swap(pix_check_);
-        r.layer("postcorrected").data.swap(pix_pc_);
+        if (diagnostics()) {
+            r.layer("traced").data.swap(pix_traced_);
+            r.layer("class").data.swap(pix_class_);
+            r.layer("check").data.swap(pix_check_);
+            r.layer("postcorrected").data.swap(pix_pc_);
+        }
         const uint64_t traced = traced_total_.load(std::memory_order_relaxed);
         r.samples = traced;
         r.shaded = shaded_total_.load(std::memory_order_relaxed);
@@ -770,6 +774,7 @@ class KimSampler final : public PixelSampler {
     // ---- Resolve: box filter of the ss x ss samples of each pixel -----------------------
     void resolve_tile(const PixelRect &tile) {
         const float inv_n = 1.f / float(ss_ * ss_);
+        const bool diag = diagnostics();
         uint64_t traced = 0, shaded = 0, nan = 0, rays = 0;
         for (uint32_t py = tile.y0; py < tile.y1; ++py)
             for (uint32_t px = tile.x0; px < tile.x1; ++px) {
@@ -796,10 +801,12 @@ class KimSampler final : public PixelSampler {
                 const size_t o = size_t(py) * width_ + px;
                 pix_color_[o] = good ? sum / float(good) : Rgb(0.f);
                 pix_rays_[o] = float(n_rays);
-                pix_traced_[o] = float(n_traced) * inv_n;
-                pix_class_[o] = float(cls_sum) * inv_n;
-                pix_check_[o] = float(check);
-                pix_pc_[o] = float(pc);
+                if (diag) {
+                    pix_traced_[o] = float(n_traced) * inv_n;
+                    pix_class_[o] = float(cls_sum) * inv_n;
+                    pix_check_[o] = float(check);
+                    pix_pc_[o] = float(pc);
+                }
                 traced += n_traced;
                 rays += n_rays;
             }

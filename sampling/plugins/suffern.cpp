@@ -277,21 +277,28 @@ class SuffernSampler final : public PixelSampler {
     }
 
     void end_frame(FrameResult &r) override {
+        if (!diagnostics())
+            drop_diagnostics(r);  // before reset(), which would zero them
         r.reset(width_, height_);
         r.color = color_;
-        // NOTE: FrameResult::layer() may reallocate the layer list: create both layers first,
-        // then hold references.
-        r.layer("level");
-        r.layer("points");
-        std::vector<float> &level = r.layer("level").data;
-        std::vector<float> &points = r.layer("points").data;
+        // Diagnostic layers (null when off). NOTE: FrameResult::layer() may reallocate the
+        // layer list: create both layers first, then point into them.
+        float *level = nullptr, *points = nullptr;
+        if (diagnostics()) {
+            r.layer("level");
+            r.layer("points");
+            level = r.layer("level").data.data();
+            points = r.layer("points").data.data();
+        }
         uint64_t rays = 0, split = 0;
         for (size_t i = 0; i < color_.size(); ++i) {
             r.rays[i] = float(rays_[i]);
             rays += rays_[i];
             r.nan_samples += nan_[i];
-            level[i] = float(level_[i]);
-            points[i] = float(points_[i]);
+            if (level) {
+                level[i] = float(level_[i]);
+                points[i] = float(points_[i]);
+            }
             split += split_[i];
         }
         r.samples = traced_.load();
