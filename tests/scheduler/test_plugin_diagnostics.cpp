@@ -3,8 +3,11 @@
 // on again, its next frame equals a fresh plugin's first frame, layers included.
 #include <doctest/doctest.h>
 
+#include <algorithm>
+#include <cmath>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "plugin_test_util.h"
 #include "sampling/pixel_sampler.h"
@@ -19,45 +22,99 @@ using tessera::test::SyntheticAttributeSource;
 
 namespace {
 
-/// Shapes, a texture, a thin line, a shadow and a reflection: every plugin finds work.
+/// Shapes, a texture, thin lines, shadows and a reflection: every plugin finds work, and kim
+/// post-corrects (the busy scene of test_plugin_kim.cpp).
 std::unique_ptr<SyntheticAttributeSource> scene() {
-    auto src = std::make_unique<SyntheticAttributeSource>(37, 29);
+    auto src = std::make_unique<SyntheticAttributeSource>(45, 38);
     src->shapes[0].color_dx = Rgb(0.004f, 0.f, 0.002f);
-    AttrShape disc;
-    disc.kind = AttrShape::Kind::Disc;
-    disc.cx = 12, disc.cy = 10, disc.r = 7;
-    disc.color = Rgb(0.7f, 0.2f, 0.2f);
-    disc.texture_scale = 4;
-    src->shapes.push_back(disc);
+    AttrShape s;
+    s.kind = AttrShape::Kind::Disc;
+    s.cx = 14, s.cy = 12, s.r = 9;
+    s.color = Rgb(0.7f, 0.2f, 0.2f);
+    s.normal = normalize(Vec3f(0.3f, 0, -1));
+    src->shapes.push_back(s);
+    s.cx = 30, s.cy = 25, s.r = 11;
+    s.texture_scale = 5;
+    s.color = Rgb(0.3f, 0.7f, 0.3f);
+    s.normal = Vec3f(0, 0, -1);
+    src->shapes.push_back(s);
     AttrShape line;
     line.kind = AttrShape::Kind::Line;
-    line.nx = 0.6f, line.ny = 0.8f, line.d = 20.3f, line.width = 0.7f;
+    line.nx = 1, line.ny = 0, line.d = 23.5f, line.width = 0.8f;
     line.color = Rgb(0.1f, 0.1f, 0.9f);
+    src->shapes.push_back(line);
+    line.nx = 0.08f, line.ny = 0.9968f, line.d = 19.1f, line.width = 1.2f;
+    line.color = Rgb(0.9f, 0.9f, 0.1f);
     src->shapes.push_back(line);
     AttrShape mirror;
     mirror.kind = AttrShape::Kind::HalfPlane;
-    mirror.nx = 0, mirror.ny = -1, mirror.d = -22;
+    mirror.nx = 0, mirror.ny = -1, mirror.d = -31;
     mirror.reflects = 1;
     mirror.reflection = Rgb(0.3f, 0.3f, 0.35f);
     src->shapes.push_back(mirror);
-    src->shadows.push_back(ShadowDisc{27, 8, 5});
+    src->shadows.push_back(ShadowDisc{8, 30, 4});
+    src->shadows.push_back(ShadowDisc{36, 8, 0.7f});
     return src;
 }
+
+/// The scene with non-finite radiance in a band of pixels (traced and shaded alike), so that the
+/// plugins' NaN counts and dropped samples are compared too.
+class NanBandSource final : public SampleSource {
+  public:
+    explicit NanBandSource(const SyntheticAttributeSource &s) : s_(s) {}
+    uint32_t width() const override { return s_.width(); }
+    uint32_t height() const override { return s_.height(); }
+    bool provides_attributes() const override { return true; }
+    std::string describe() const override { return "synthetic source with a NaN band"; }
+    Sample evaluate(const CameraSample &cs) const override {
+        Sample r = s_.evaluate(cs);
+        if (in_band(float(cs.px) + cs.fx)) r.radiance = Rgb(std::nanf(""), 0.f, 0.f);
+        return r;
+    }
+    Rgb shade(const HitAttributes &a) const override {
+        return in_band(a.primary.position.x) ? Rgb(std::nanf(""), 0.f, 0.f) : s_.shade(a);
+    }
+
+  private:
+    static bool in_band(float x) { return x > 22.2f && x < 24.9f; }  // across a line
+    const SyntheticAttributeSource &s_;
+};
 
 }  // namespace
 
 TEST_CASE("diagnostics off: same colours, rays and counts, no layers; on again: a fresh frame") {
-    auto src = scene();
+    auto synthetic = scene();
+    const NanBandSource with_nans(*synthetic);
     sched::FrameScheduler scheduler(sched::FrameOptions{2, sched::kTileSize});
     int plugins = 0, with_layers = 0;
-    for (const PluginInfo &info : plugin_registry()) {
-        if (info.kind != PluginKind::Frame) continue;
-        CAPTURE(info.name);
+    // Every frame plugin with its defaults; kim also on the scale of this flat scene (so that
+    // it interpolates and post-corrects), with larger blocks (several A1/A2 levels) and with
+    // supersampling.
+    std::vector<std::string> specs;
+    for (const PluginInfo &info : plugin_registry())
+        if (info.kind == PluginKind::Frame) specs.push_back(info.name);
+    for (const char *kim : {"kim:scene-size=300", "kim:scene-size=300,block=4",
+                            "kim:scene-size=300,ss=2"})
+        specs.push_back(kim);
+    for (const std::string &text : specs)
+    for (const SampleSource *src : {static_cast<const SampleSource *>(synthetic.get()),
+                                    static_cast<const SampleSource *>(&with_nans)}) {
+        CAPTURE(text);
+        CAPTURE(src->describe());
         ++plugins;
-        const PluginSpec spec = parse_plugin_spec(info.name);
+        const PluginSpec spec = parse_plugin_spec(text);
         auto fresh_plugin = spec.info->make(spec.params);
         FrameResult fresh;
         scheduler.render(*fresh_plugin, *src, fresh);
+        if (src == &with_nans) CHECK(fresh.nan_samples > 0);
+        if (text.rfind("kim:", 0) == 0) {
+            // Post-correction ran (what direct output must also count).
+            float corrected = 0;
+            for (const FrameLayer &l : fresh.diagnostics)
+                if (l.name == "postcorrected")
+                    for (float v : l.data) corrected = std::max(corrected, v);
+            CHECK(corrected > 0.f);
+        }
         with_layers += !fresh.diagnostics.empty();
 
         auto plugin = spec.info->make(spec.params);
@@ -75,6 +132,6 @@ TEST_CASE("diagnostics off: same colours, rays and counts, no layers; on again: 
         scheduler.render(*plugin, *src, r);
         test::check_same_frame(fresh, r);
     }
-    CHECK(plugins >= 6);       // fixed, jin, kim, fliptri, flipquad, suffern
-    CHECK(with_layers >= 5);   // all but fixed write diagnostic layers
+    CHECK(plugins >= 18);      // (fixed, jin, kim, fliptri, flipquad, suffern, 3 x kim) x 2
+    CHECK(with_layers >= 16);  // all but fixed write diagnostic layers
 }
