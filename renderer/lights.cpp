@@ -27,14 +27,6 @@ std::string vec_str(Vec3f v) {
     return s.str();
 }
 
-/// pbrt-v4's SmoothStep: 0 below a, 1 above b, cubic Hermite in between.
-float smooth_step(float x, float a, float b) {
-    if (a == b)
-        return x < a ? 0.f : 1.f;
-    float t = clamp((x - a) / (b - a), 0.f, 1.f);
-    return t * t * (3.f - 2.f * t);
-}
-
 /// Converts an area density at p_light to solid angle at p_ref (eq. 4.9): d^2 / |cos theta_l|.
 /// Returns 0 for a grazing or coincident configuration.
 float area_to_solid_angle_pdf(float pdf_area, Vec3f p_ref, Vec3f p_light, Vec3f n_light) {
@@ -84,19 +76,6 @@ Rgb Light::Le(Vec3f) const {
 // ---------------------------------------------------------------------------------------------
 // PointLight
 
-std::optional<LightLiSample> PointLight::sample_li(const LightSampleContext &ctx, Vec2f) const {
-    Vec3f d = p_ - ctx.p;
-    float d2 = length_squared(d);
-    if (d2 == 0.f)
-        return std::nullopt;
-    LightLiSample s;
-    s.wi = d / std::sqrt(d2);
-    s.L = I_ / d2;  // inverse-square law (eq. 4.12)
-    s.pdf = 1.f;
-    s.p_light = p_;
-    return s;
-}
-
 std::string PointLight::describe() const {
     return "PointLight p=" + vec_str(p_) + " I=" + rgb_str(I_);
 }
@@ -127,26 +106,7 @@ SpotLight::SpotLight(const Transform &render_from_light, Rgb intensity, float co
 }
 
 Rgb SpotLight::intensity(Vec3f w_light) const {
-    return I_ * smooth_step(cos_theta(w_light), cos_falloff_end_, cos_falloff_start_);
-}
-
-std::optional<LightLiSample> SpotLight::sample_li(const LightSampleContext &ctx, Vec2f) const {
-    Vec3f d = p_ - ctx.p;
-    float d2 = length_squared(d);
-    if (d2 == 0.f)
-        return std::nullopt;
-    LightLiSample s;
-    s.wi = d / std::sqrt(d2);
-    // The falloff is evaluated in light space, as pbrt-v4 does (it matters for sheared or
-    // non-uniformly scaled lights); for the others the render-space axis gives the same cosine.
-    const float cos_l = rigid_ ? dot(axis_, -s.wi)
-                               : cos_theta(normalize(render_from_light_.inverse_vector(-s.wi)));
-    s.L = I_ * (smooth_step(cos_l, cos_falloff_end_, cos_falloff_start_) / d2);
-    if (s.L.is_black())
-        return std::nullopt;
-    s.pdf = 1.f;
-    s.p_light = p_;
-    return s;
+    return I_ * SpotLight::smooth_step(cos_theta(w_light), cos_falloff_end_, cos_falloff_start_);
 }
 
 Rgb SpotLight::phi() const {

@@ -107,6 +107,13 @@ class SpotLight final : public Light {
     std::string describe() const override;
     /// Intensity (W/sr) toward light-space unit direction w_light.
     Rgb intensity(Vec3f w_light) const;
+    /// pbrt-v4's SmoothStep: 0 below a, 1 above b, cubic Hermite in between.
+    static float smooth_step(float x, float a, float b) {
+        if (a == b)
+            return x < a ? 0.f : 1.f;
+        float t = clamp((x - a) / (b - a), 0.f, 1.f);
+        return t * t * (3.f - 2.f * t);
+    }
 
   private:
     Transform render_from_light_;
@@ -119,6 +126,43 @@ class SpotLight final : public Light {
     bool rigid_ = false;
     Vec3f axis_;
 };
+
+// The delta lights' sample_li are defined here so that a caller that knows the light's type
+// (the Whitted integrator's light proxies: `light->PointLight::sample_li(...)`) gets them inlined
+// instead of a virtual call per light and shading point.
+inline std::optional<LightLiSample> PointLight::sample_li(const LightSampleContext &ctx,
+                                                          Vec2f) const {
+    Vec3f d = p_ - ctx.p;
+    float d2 = length_squared(d);
+    if (d2 == 0.f)
+        return std::nullopt;
+    LightLiSample s;
+    s.wi = d / std::sqrt(d2);
+    s.L = I_ / d2;  // inverse-square law (eq. 4.12)
+    s.pdf = 1.f;
+    s.p_light = p_;
+    return s;
+}
+
+inline std::optional<LightLiSample> SpotLight::sample_li(const LightSampleContext &ctx,
+                                                         Vec2f) const {
+    Vec3f d = p_ - ctx.p;
+    float d2 = length_squared(d);
+    if (d2 == 0.f)
+        return std::nullopt;
+    LightLiSample s;
+    s.wi = d / std::sqrt(d2);
+    // The falloff is evaluated in light space, as pbrt-v4 does (it matters for sheared or
+    // non-uniformly scaled lights); for the others the render-space axis gives the same cosine.
+    const float cos_l = rigid_ ? dot(axis_, -s.wi)
+                               : cos_theta(normalize(render_from_light_.inverse_vector(-s.wi)));
+    s.L = I_ * (smooth_step(cos_l, cos_falloff_end_, cos_falloff_start_) / d2);
+    if (s.L.is_black())
+        return std::nullopt;
+    s.pdf = 1.f;
+    s.p_light = p_;
+    return s;
+}
 
 /// Directional light (pbrt-v4 "distant"): radiance L arriving from direction `w_to_light`.
 class DistantLight final : public Light {

@@ -118,7 +118,11 @@ WhittedIntegrator::WhittedIntegrator(const Scene &scene, const WhittedOptions &o
         const Light *l = scene_.lights[i].get();
         index[l] = i;
         lights_[i].light = l;
-        if (is_delta_light(l->type()))
+        if (dynamic_cast<const PointLight *>(l))
+            lights_[i].kind = LightProxy::Kind::Point;
+        else if (dynamic_cast<const SpotLight *>(l))
+            lights_[i].kind = LightProxy::Kind::Spot;
+        else if (is_delta_light(l->type()))
             lights_[i].kind = LightProxy::Kind::Delta;
     }
     // The radiance an emitter sends from p on the n side (or the other side when it emits only
@@ -216,7 +220,8 @@ float WhittedIntegrator::view_depth(Vec3f p) const {
 std::string WhittedIntegrator::describe() const {
     size_t area = 0, delta = 0;
     for (const LightProxy &l : lights_) {
-        if (l.kind == LightProxy::Kind::Delta)
+        if (l.kind == LightProxy::Kind::Delta || l.kind == LightProxy::Kind::Point ||
+            l.kind == LightProxy::Kind::Spot)
             ++delta;
         if (l.kind == LightProxy::Kind::Area || l.kind == LightProxy::Kind::Sphere)
             ++area;
@@ -325,9 +330,18 @@ Rgb WhittedIntegrator::local_shading(const ShadePoint &sp, const Bsdf *bsdf,
         switch (lp.kind) {
             case LightProxy::Kind::None:
                 continue;
-            case LightProxy::Kind::Delta: {
-                // sample_li is nullopt for zero radiance, i.e. also outside a spot cone.
-                std::optional<LightLiSample> ls = lp.light->sample_li({sp.p, sp.n}, {0.5f, 0.5f});
+            case LightProxy::Kind::Delta:
+            case LightProxy::Kind::Point:
+            case LightProxy::Kind::Spot: {
+                // sample_li is nullopt for zero radiance, i.e. also outside a spot cone. Point
+                // and spot lights: the same function without the virtual call.
+                const LightSampleContext ctx{sp.p, sp.n};
+                std::optional<LightLiSample> ls =
+                    lp.kind == LightProxy::Kind::Point
+                        ? static_cast<const PointLight *>(lp.light)->PointLight::sample_li(ctx, {})
+                    : lp.kind == LightProxy::Kind::Spot
+                        ? static_cast<const SpotLight *>(lp.light)->SpotLight::sample_li(ctx, {})
+                        : lp.light->sample_li(ctx, {0.5f, 0.5f});
                 if (!ls) {
                     skip();
                     continue;

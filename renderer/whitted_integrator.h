@@ -114,7 +114,9 @@ class WhittedIntegrator final : public SampleSource {
   private:
     /// An entry of scene.lights as Whitted sees it.
     struct LightProxy {
-        enum class Kind { None, Delta, Area, Sphere } kind = Kind::None;
+        /// Point and Spot: delta lights whose sample_li is called directly (inlined); Delta:
+        /// the other delta lights, through the virtual call.
+        enum class Kind { None, Delta, Point, Spot, Area, Sphere } kind = Kind::None;
         const Light *light = nullptr;
         Vec3f p;                ///< area: centroid; sphere: centre
         Vec3f n;                ///< area: emitting-side unit normal
