@@ -85,7 +85,8 @@ std::string PointLight::describe() const {
 
 SpotLight::SpotLight(const Transform &render_from_light, Rgb intensity, float cos_falloff_start,
                      float cos_falloff_end)
-    : render_from_light_(render_from_light),
+    : Light(LightShape::Spot),
+      render_from_light_(render_from_light),
       p_(render_from_light.point({0, 0, 0})),
       I_(intensity),
       cos_falloff_start_(cos_falloff_start),

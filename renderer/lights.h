@@ -48,11 +48,18 @@ struct LightLiSample {
     Vec3f n_light;  ///< emitting-side unit normal at p_light (zero for non-area lights)
 };
 
+/// The concrete class of a light where a caller may call it directly (see shape()).
+enum class LightShape : uint8_t { Other, Point, Spot };
+
 /// Interface of all lights.
 class Light {
   public:
     virtual ~Light() = default;
     virtual LightType type() const = 0;
+    /// Which final class this is, for hot loops that call its sample_li directly instead of
+    /// through the vtable (`static_cast<const PointLight *>(l)->PointLight::sample_li(...)`,
+    /// inlined: its body is below). The Whitted integrator's shading loop does.
+    LightShape shape() const { return shape_; }
     /// Samples incident illumination at ctx.p with u in [0,1)^2. nullopt when the sample carries
     /// no radiance (back side of a one-sided emitter, zero pdf). Thread-safe.
     virtual std::optional<LightLiSample> sample_li(const LightSampleContext &ctx,
@@ -76,12 +83,18 @@ class Light {
     virtual void preprocess(Vec3f /*scene_center*/, float /*scene_radius*/) {}
     /// One readable line for logs.
     virtual std::string describe() const = 0;
+
+  protected:
+    explicit Light(LightShape shape = LightShape::Other) : shape_(shape) {}
+
+  private:
+    LightShape shape_;
 };
 
 /// Isotropic point light (pbrt-v4 "point"): intensity I in W/sr.
 class PointLight final : public Light {
   public:
-    PointLight(Vec3f p, Rgb intensity) : p_(p), I_(intensity) {}
+    PointLight(Vec3f p, Rgb intensity) : Light(LightShape::Point), p_(p), I_(intensity) {}
     LightType type() const override { return LightType::DeltaPosition; }
     std::optional<LightLiSample> sample_li(const LightSampleContext &ctx, Vec2f u) const override;
     float pdf_li(const LightSampleContext &, Vec3f, Vec3f, Vec3f) const override { return 0.f; }
@@ -263,6 +276,7 @@ class TriangleLight final : public Light {
     bool twosided_;
     float area_;
 };
+
 
 /// Diffuse emitter on a full sphere (pbrt-v4 DiffuseAreaLight on a Sphere). From outside it
 /// samples the cone of directions the sphere subtends (pbrt-v4 Sphere::Sample(ctx, u)); from

@@ -118,9 +118,9 @@ WhittedIntegrator::WhittedIntegrator(const Scene &scene, const WhittedOptions &o
         const Light *l = scene_.lights[i].get();
         index[l] = i;
         lights_[i].light = l;
-        if (dynamic_cast<const PointLight *>(l))
+        if (l->shape() == LightShape::Point)
             lights_[i].kind = LightProxy::Kind::Point;
-        else if (dynamic_cast<const SpotLight *>(l))
+        else if (l->shape() == LightShape::Spot)
             lights_[i].kind = LightProxy::Kind::Spot;
         else if (is_delta_light(l->type()))
             lights_[i].kind = LightProxy::Kind::Delta;

@@ -101,6 +101,10 @@ TEST_CASE("spot light: smoothstep falloff between the cone edges, pbrt-v4 defaul
         auto s = spot->sample_li(ctx, {0.5f, 0.5f});
         return s ? s->L.r * 4.f : 0.f;  // undo 1/d^2
     };
+    // The tag the Whitted integrator's direct calls rely on.
+    CHECK(spot->shape() == LightShape::Spot);
+    CHECK(make_light(light_desc("point", {}))->shape() == LightShape::Point);
+    CHECK(make_light(light_desc("distant", {}))->shape() == LightShape::Other);
     CHECK(at_angle(0.f) == doctest::Approx(3.f));
     CHECK(at_angle(24.9f) == doctest::Approx(3.f));
     CHECK(at_angle(30.1f) == 0.f);
