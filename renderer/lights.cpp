@@ -98,16 +98,16 @@ SpotLight::SpotLight(const Transform &render_from_light, Rgb intensity, float co
         for (int j = 0; j < 3; ++j)
             g[i][j] = m.m[0][i] * m.m[0][j] + m.m[1][i] * m.m[1][j] + m.m[2][i] * m.m[2][j];
     const double s2 = g[0][0];
-    bool rigid = s2 > 0 && m.m[3][0] == 0 && m.m[3][1] == 0 && m.m[3][2] == 0;
-    for (int i = 0; i < 3 && rigid; ++i)
+    bool similarity = s2 > 0 && m.m[3][0] == 0 && m.m[3][1] == 0 && m.m[3][2] == 0;
+    for (int i = 0; i < 3 && similarity; ++i)
         for (int j = 0; j < 3; ++j)
-            rigid = rigid && std::abs(g[i][j] - (i == j ? s2 : 0.0)) <= 1e-6 * s2;
-    rigid_ = rigid;
-    if (rigid_) axis_ = normalize(render_from_light.vector({0, 0, 1}));
+            similarity = similarity && std::abs(g[i][j] - (i == j ? s2 : 0.0)) <= 1e-6 * s2;
+    similarity_ = similarity;
+    if (similarity_) axis_ = normalize(render_from_light.vector({0, 0, 1}));
 }
 
 Rgb SpotLight::intensity(Vec3f w_light) const {
-    return I_ * SpotLight::smooth_step(cos_theta(w_light), cos_falloff_end_, cos_falloff_start_);
+    return I_ * smooth_step(cos_theta(w_light), cos_falloff_end_, cos_falloff_start_);
 }
 
 Rgb SpotLight::phi() const {

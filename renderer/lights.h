@@ -133,10 +133,11 @@ class SpotLight final : public Light {
     Vec3f p_;
     Rgb I_;
     float cos_falloff_start_, cos_falloff_end_;
-    /// When render_from_light is a rotation (or reflection) times a uniform scale, the cosine
-    /// to the light-space axis is dot(axis_, w) in render space: sample_li skips the inverse
-    /// transform and the second normalisation. False for sheared or non-uniformly scaled lights.
-    bool rigid_ = false;
+    /// When render_from_light is a similarity (a rotation or reflection times a uniform scale),
+    /// the cosine to the light-space axis is dot(axis_, w) in render space: sample_li skips the
+    /// inverse transform and the second normalisation. False for sheared or non-uniformly
+    /// scaled lights.
+    bool similarity_ = false;
     Vec3f axis_;
 };
 
@@ -167,7 +168,7 @@ inline std::optional<LightLiSample> SpotLight::sample_li(const LightSampleContex
     s.wi = d / std::sqrt(d2);
     // The falloff is evaluated in light space, as pbrt-v4 does (it matters for sheared or
     // non-uniformly scaled lights); for the others the render-space axis gives the same cosine.
-    const float cos_l = rigid_ ? dot(axis_, -s.wi)
+    const float cos_l = similarity_ ? dot(axis_, -s.wi)
                                : cos_theta(normalize(render_from_light_.inverse_vector(-s.wi)));
     s.L = I_ * (smooth_step(cos_l, cos_falloff_end_, cos_falloff_start_) / d2);
     if (s.L.is_black())
@@ -276,7 +277,6 @@ class TriangleLight final : public Light {
     bool twosided_;
     float area_;
 };
-
 
 /// Diffuse emitter on a full sphere (pbrt-v4 DiffuseAreaLight on a Sphere). From outside it
 /// samples the cone of directions the sphere subtends (pbrt-v4 Sphere::Sample(ctx, u)); from

@@ -131,7 +131,7 @@ TEST_CASE("spot light: smoothstep falloff between the cone edges, pbrt-v4 defaul
     CHECK_FALSE(aimed->sample_li({{-5, 2, 0}, {}}, {}));  // behind the spot
 }
 
-TEST_CASE("spot light: the falloff cosine is the light-space one, rigid or scaled transform") {
+TEST_CASE("spot light: the falloff cosine is the light-space one, similarity or sheared transform") {
     // pbrt-v4: I(w) = I smoothstep(cos_theta(normalize(light_from_render(-wi)))). A rotated,
     // uniformly scaled light takes the render-space shortcut; a non-uniformly scaled one must
     // not: with scale (1, 3, 1) the render-space cosine to the axis is visibly different.
@@ -143,11 +143,11 @@ TEST_CASE("spot light: the falloff cosine is the light-space one, rigid or scale
         float t = clamp((cos_theta(w_light) - c0) / (c1 - c0), 0.f, 1.f);
         return 2.f * t * t * (3 - 2 * t) / length_squared(apex - p);
     };
-    const Transform rigid = Transform::translate({1, -2, 0.5f}) *
+    const Transform similarity = Transform::translate({1, -2, 0.5f}) *
                             Transform::rotate(37.0, {1, 2, 3}) * Transform::scale(2, 2, 2);
     const Transform sheared = Transform::scale(1, 3, 1);
     int in_band = 0, differs = 0;
-    for (const Transform *tr : {&rigid, &sheared}) {
+    for (const Transform *tr : {&similarity, &sheared}) {
         auto spot = make_light(light_desc(
             "spot", {num_param("float", "scale", {2}), num_param("float", "coneangle", {40}),
                      num_param("float", "conedeltaangle", {15})},
