@@ -195,6 +195,18 @@ void check_ply_file(const std::string &path) {
     const bool ascii = format == "ascii", big = format == "binary_big_endian";
     if (!ascii && !big && format != "binary_little_endian")
         fail(path, "unknown PLY format \"" + format + "\"");
+    // assimp 5.2 misreads the data after an element it does not know (neither "vertex" nor
+    // "face") unless it comes after both: it found no faces, or indices from the wrong bytes,
+    // or (fuzz_ply) a face count that made it allocate 4.4 GB. Such elements are allowed only
+    // at the end, where nothing is read after them.
+    size_t last_mesh_element = 0;
+    for (size_t i = 0; i < elements.size(); ++i)
+        if (elements[i].name == "vertex" || elements[i].name == "face") last_mesh_element = i;
+    for (size_t i = 0; i < last_mesh_element; ++i)
+        if (elements[i].name != "vertex" && elements[i].name != "face")
+            fail(path, "PLY element \"" + elements[i].name.substr(0, 40) +
+                           "\" comes before the vertices or faces; other elements are supported "
+                           "only after them");
 
     std::error_code ec;
     const uint64_t file_size = std::filesystem::file_size(path, ec);

@@ -4,6 +4,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <tuple>
 
 #include "renderer/mesh_io.h"
 #include "renderer/scene_desc.h"
@@ -123,6 +124,40 @@ TEST_CASE("load_ply: errors name the file") {
     CHECK_THROWS_AS(load_ply(bad), SceneError);
     std::string junk = write_text("junk.ply", "this is not a ply file\n");
     CHECK_THROWS_AS(load_ply(junk), SceneError);
+}
+
+TEST_CASE("load_ply: elements other than vertex and face only after both") {
+    // The PLY reader (assimp) misreads what follows an unknown element: no faces, or indices and
+    // list counts from the wrong bytes. Such files are refused with a clear error; an unknown
+    // element at the end loads, its data ignored.
+    const std::string vertex = "element vertex 3\nproperty float x\nproperty float y\n"
+                               "property float z\n";
+    const std::string face = "element face 1\nproperty list uchar int vertex_indices\n";
+    const std::string foo = "element foo 2\nproperty float a\nproperty int b\n";
+    const std::string vdata = "0 0 0\n1 0 0\n0 1 0\n", fdata = "3 0 1 2\n",
+                      foodata = "1.5 7\n2.5 9\n";
+    auto ply = [&](const std::string &name, const std::string &header, const std::string &body) {
+        return write_text(name, "ply\nformat ascii 1.0\n" + header + "end_header\n" + body);
+    };
+    auto message = [](const std::string &path) {
+        try {
+            load_ply(path);
+        } catch (const SceneError &e) {
+            return std::string(e.what());
+        }
+        return std::string("no error");
+    };
+    for (const auto &[name, header, body] :
+         {std::tuple{"foo_first.ply", foo + vertex + face, foodata + vdata + fdata},
+          std::tuple{"foo_between.ply", vertex + foo + face, vdata + foodata + fdata}}) {
+        CAPTURE(name);
+        const std::string path = ply(name, header, body);
+        CHECK(message(path) == path + ":0: PLY element \"foo\" comes before the vertices or "
+                                      "faces; other elements are supported only after them");
+    }
+    MeshData m = load_ply(ply("foo_last.ply", vertex + face + foo, vdata + fdata + foodata));
+    CHECK(m.p.size() == 3);
+    CHECK(m.indices == std::vector<uint32_t>{0, 1, 2});
 }
 
 TEST_CASE("load_ply: Stanford bunny (binary) and bunny_lowres (ASCII, extra properties)") {
