@@ -4,7 +4,6 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
-#include <tuple>
 
 #include "renderer/mesh_io.h"
 #include "renderer/scene_desc.h"
@@ -147,11 +146,14 @@ TEST_CASE("load_ply: elements other than vertex and face only after both") {
         }
         return std::string("no error");
     };
-    for (const auto &[name, header, body] :
-         {std::tuple{"foo_first.ply", foo + vertex + face, foodata + vdata + fdata},
-          std::tuple{"foo_between.ply", vertex + foo + face, vdata + foodata + fdata}}) {
-        CAPTURE(name);
-        const std::string path = ply(name, header, body);
+    struct Case {
+        std::string name, header, body;
+    };
+    // (No structured bindings: clang cannot capture them in CAPTURE's lambda.)
+    for (const Case &c : {Case{"foo_first.ply", foo + vertex + face, foodata + vdata + fdata},
+                          Case{"foo_between.ply", vertex + foo + face, vdata + foodata + fdata}}) {
+        CAPTURE(c.name);
+        const std::string path = ply(c.name, c.header, c.body);
         CHECK(message(path) == path + ":0: PLY element \"foo\" comes before the vertices or "
                                       "faces; other elements are supported only after them");
     }
