@@ -417,18 +417,15 @@ std::optional<LightLiSample> SphereLight::sample_li(const LightSampleContext &ct
         p = c_ + n_out * radius_;
         pdf = 1.f / (2.f * kPi * cone.one_minus_cos_max);
     }
-    Vec3f d = p - ctx.p;
-    float d2 = length_squared(d);
-    if (d2 == 0.f)
+    float d2;
+    std::optional<LightLiSample> s = sample_toward(ctx, p, &d2);
+    if (!s)
+        return s;
+    s->pdf = pdf;
+    s->L = L(p, n_out, {}, -s->wi);
+    if (s->L.is_black())
         return std::nullopt;
-    LightLiSample s;
-    s.wi = d / std::sqrt(d2);
-    s.pdf = pdf;
-    s.L = L(p, n_out, {}, -s.wi);
-    if (s.L.is_black())
-        return std::nullopt;
-    s.p_light = p;
-    s.n_light = face_forward(emitting_normal(p), -s.wi);
+    s->n_light = face_forward(emitting_normal(p), -s->wi);
     return s;
 }
 

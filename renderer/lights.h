@@ -48,6 +48,20 @@ struct LightLiSample {
     Vec3f n_light;  ///< emitting-side unit normal at p_light (zero for non-area lights)
 };
 
+/// A light sample toward the point p_light as seen from ctx.p: wi (unit) and p_light set, d2 the
+/// squared distance; nullopt when the points coincide. The caller fills L, pdf and n_light.
+inline std::optional<LightLiSample> sample_toward(const LightSampleContext &ctx, Vec3f p_light,
+                                                  float *d2) {
+    Vec3f d = p_light - ctx.p;
+    *d2 = length_squared(d);
+    if (*d2 == 0.f)
+        return std::nullopt;
+    LightLiSample s;
+    s.wi = d / std::sqrt(*d2);
+    s.p_light = p_light;
+    return s;
+}
+
 /// The concrete class of a light where a caller may call it directly (see shape()).
 enum class LightShape : uint8_t { Other, Point, Spot };
 
@@ -146,35 +160,30 @@ class SpotLight final : public Light {
 // instead of a virtual call per light and shading point.
 inline std::optional<LightLiSample> PointLight::sample_li(const LightSampleContext &ctx,
                                                           Vec2f) const {
-    Vec3f d = p_ - ctx.p;
-    float d2 = length_squared(d);
-    if (d2 == 0.f)
-        return std::nullopt;
-    LightLiSample s;
-    s.wi = d / std::sqrt(d2);
-    s.L = I_ / d2;  // inverse-square law (eq. 4.12)
-    s.pdf = 1.f;
-    s.p_light = p_;
+    float d2;
+    std::optional<LightLiSample> s = sample_toward(ctx, p_, &d2);
+    if (s) {
+        s->L = I_ / d2;  // inverse-square law (eq. 4.12)
+        s->pdf = 1.f;
+    }
     return s;
 }
 
 inline std::optional<LightLiSample> SpotLight::sample_li(const LightSampleContext &ctx,
                                                          Vec2f) const {
-    Vec3f d = p_ - ctx.p;
-    float d2 = length_squared(d);
-    if (d2 == 0.f)
-        return std::nullopt;
-    LightLiSample s;
-    s.wi = d / std::sqrt(d2);
+    float d2;
+    std::optional<LightLiSample> s = sample_toward(ctx, p_, &d2);
+    if (!s)
+        return s;
     // The falloff is evaluated in light space, as pbrt-v4 does (it matters for sheared or
     // non-uniformly scaled lights); for the others the render-space axis gives the same cosine.
-    const float cos_l = similarity_ ? dot(axis_, -s.wi)
-                               : cos_theta(normalize(render_from_light_.inverse_vector(-s.wi)));
-    s.L = I_ * (smooth_step(cos_l, cos_falloff_end_, cos_falloff_start_) / d2);
-    if (s.L.is_black())
+    const float cos_l = similarity_
+                            ? dot(axis_, -s->wi)
+                            : cos_theta(normalize(render_from_light_.inverse_vector(-s->wi)));
+    s->L = I_ * (smooth_step(cos_l, cos_falloff_end_, cos_falloff_start_) / d2);
+    if (s->L.is_black())
         return std::nullopt;
-    s.pdf = 1.f;
-    s.p_light = p_;
+    s->pdf = 1.f;
     return s;
 }
 

@@ -145,4 +145,39 @@ class SyntheticAttributeSource final : public SampleSource {
     mutable std::vector<std::atomic<uint32_t>> counts_;
 };
 
+/// A busy scene: discs, thin lines in both directions, a checker texture, a reflection and
+/// shadows, on a size that is not a multiple of the tile size (45 x 38). kim post-corrects on it.
+inline std::unique_ptr<SyntheticAttributeSource> busy_attribute_scene() {
+    auto src = std::make_unique<SyntheticAttributeSource>(45, 38);
+    src->shapes[0].color_dx = Rgb(0.004f, 0.f, 0.002f);
+    AttrShape s;
+    s.kind = AttrShape::Kind::Disc;
+    s.cx = 14, s.cy = 12, s.r = 9;
+    s.color = Rgb(0.7f, 0.2f, 0.2f);
+    s.normal = normalize(Vec3f(0.3f, 0, -1));
+    src->shapes.push_back(s);
+    s.cx = 30, s.cy = 25, s.r = 11;
+    s.texture_scale = 5;
+    s.color = Rgb(0.3f, 0.7f, 0.3f);
+    s.normal = Vec3f(0, 0, -1);
+    src->shapes.push_back(s);
+    AttrShape line;
+    line.kind = AttrShape::Kind::Line;
+    line.nx = 1, line.ny = 0, line.d = 23.5f, line.width = 0.8f;
+    line.color = Rgb(0.1f, 0.1f, 0.9f);
+    src->shapes.push_back(line);
+    line.nx = 0.08f, line.ny = 0.9968f, line.d = 19.1f, line.width = 1.2f;
+    line.color = Rgb(0.9f, 0.9f, 0.1f);
+    src->shapes.push_back(line);
+    AttrShape mirror;
+    mirror.kind = AttrShape::Kind::HalfPlane;
+    mirror.nx = 0, mirror.ny = -1, mirror.d = -31;
+    mirror.reflects = 1;
+    mirror.reflection = Rgb(0.3f, 0.3f, 0.35f);
+    src->shapes.push_back(mirror);
+    src->shadows.push_back(ShadowDisc{8, 30, 4});
+    src->shadows.push_back(ShadowDisc{36, 8, 0.7f});
+    return src;
+}
+
 }  // namespace tessera::test

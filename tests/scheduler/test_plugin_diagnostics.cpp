@@ -16,46 +16,9 @@
 
 using namespace tessera;
 using namespace tessera::sampling;
-using tessera::test::AttrShape;
-using tessera::test::ShadowDisc;
 using tessera::test::SyntheticAttributeSource;
 
 namespace {
-
-/// Shapes, a texture, thin lines, shadows and a reflection: every plugin finds work, and kim
-/// post-corrects (the busy scene of test_plugin_kim.cpp).
-std::unique_ptr<SyntheticAttributeSource> scene() {
-    auto src = std::make_unique<SyntheticAttributeSource>(45, 38);
-    src->shapes[0].color_dx = Rgb(0.004f, 0.f, 0.002f);
-    AttrShape s;
-    s.kind = AttrShape::Kind::Disc;
-    s.cx = 14, s.cy = 12, s.r = 9;
-    s.color = Rgb(0.7f, 0.2f, 0.2f);
-    s.normal = normalize(Vec3f(0.3f, 0, -1));
-    src->shapes.push_back(s);
-    s.cx = 30, s.cy = 25, s.r = 11;
-    s.texture_scale = 5;
-    s.color = Rgb(0.3f, 0.7f, 0.3f);
-    s.normal = Vec3f(0, 0, -1);
-    src->shapes.push_back(s);
-    AttrShape line;
-    line.kind = AttrShape::Kind::Line;
-    line.nx = 1, line.ny = 0, line.d = 23.5f, line.width = 0.8f;
-    line.color = Rgb(0.1f, 0.1f, 0.9f);
-    src->shapes.push_back(line);
-    line.nx = 0.08f, line.ny = 0.9968f, line.d = 19.1f, line.width = 1.2f;
-    line.color = Rgb(0.9f, 0.9f, 0.1f);
-    src->shapes.push_back(line);
-    AttrShape mirror;
-    mirror.kind = AttrShape::Kind::HalfPlane;
-    mirror.nx = 0, mirror.ny = -1, mirror.d = -31;
-    mirror.reflects = 1;
-    mirror.reflection = Rgb(0.3f, 0.3f, 0.35f);
-    src->shapes.push_back(mirror);
-    src->shadows.push_back(ShadowDisc{8, 30, 4});
-    src->shadows.push_back(ShadowDisc{36, 8, 0.7f});
-    return src;
-}
 
 /// The scene with non-finite radiance in a band of pixels (traced and shaded alike), so that the
 /// plugins' NaN counts and dropped samples are compared too.
@@ -83,7 +46,7 @@ class NanBandSource final : public SampleSource {
 }  // namespace
 
 TEST_CASE("diagnostics off: same colours, rays and counts, no layers; on again: a fresh frame") {
-    auto synthetic = scene();
+    auto synthetic = test::busy_attribute_scene();
     const NanBandSource with_nans(*synthetic);
     sched::FrameScheduler scheduler(sched::FrameOptions{2, sched::kTileSize});
     int plugins = 0, with_layers = 0;

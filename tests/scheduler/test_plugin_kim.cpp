@@ -570,43 +570,6 @@ TEST_CASE("kim: supersampling runs the undersampling on the ss x ss lattice") {
     CHECK(r.rays_total == 2 * total);
 }
 
-namespace {
-/// A busy scene: discs, thin lines in both directions, a checker texture, a reflection and
-/// shadows, on a size that is not a multiple of the tile size.
-std::unique_ptr<SyntheticAttributeSource> busy_scene() {
-    auto src = std::make_unique<SyntheticAttributeSource>(45, 38);
-    src->shapes[0].color_dx = Rgb(0.004f, 0.f, 0.002f);
-    AttrShape s;
-    s.kind = AttrShape::Kind::Disc;
-    s.cx = 14, s.cy = 12, s.r = 9;
-    s.color = Rgb(0.7f, 0.2f, 0.2f);
-    s.normal = normalize(Vec3f(0.3f, 0, -1));
-    src->shapes.push_back(s);
-    s.cx = 30, s.cy = 25, s.r = 11;
-    s.texture_scale = 5;
-    s.color = Rgb(0.3f, 0.7f, 0.3f);
-    s.normal = Vec3f(0, 0, -1);
-    src->shapes.push_back(s);
-    AttrShape line;
-    line.kind = AttrShape::Kind::Line;
-    line.nx = 1, line.ny = 0, line.d = 23.5f, line.width = 0.8f;
-    line.color = Rgb(0.1f, 0.1f, 0.9f);
-    src->shapes.push_back(line);
-    line.nx = 0.08f, line.ny = 0.9968f, line.d = 19.1f, line.width = 1.2f;
-    line.color = Rgb(0.9f, 0.9f, 0.1f);
-    src->shapes.push_back(line);
-    AttrShape mirror;
-    mirror.kind = AttrShape::Kind::HalfPlane;
-    mirror.nx = 0, mirror.ny = -1, mirror.d = -31;
-    mirror.reflects = 1;
-    mirror.reflection = Rgb(0.3f, 0.3f, 0.35f);
-    src->shapes.push_back(mirror);
-    src->shadows.push_back(ShadowDisc{8, 30, 4});
-    src->shadows.push_back(ShadowDisc{36, 8, 0.7f});
-    return src;
-}
-
-}  // namespace
 
 TEST_CASE("kim: post-correction across tile borders equals one serial scan per line") {
     // One 64-pixel tile holds the whole image: every scan runs inside it, serially along each
@@ -614,7 +577,7 @@ TEST_CASE("kim: post-correction across tile borders equals one serial scan per l
     // must be the same.
     for (const char *params : {"scene-size=300", "scene-size=300,block=4,ss=2"}) {
         CAPTURE(params);
-        auto src = busy_scene();
+        auto src = test::busy_attribute_scene();
         FrameResult one_tile = render_kim(*src, params, 1, 64);
         FrameResult tiles = render_kim(*src, params, 3, 8);
         check_same_frame(one_tile, tiles);
@@ -638,7 +601,7 @@ TEST_CASE("kim: frames are bit-identical for 1 and 3 threads") {
          {"scene-size=300", "scene-size=300,block=4", "scene-size=300,ss=2,postcorrect=2",
           "block=8,ss=4,scene-size=900", ""}) {
         CAPTURE(params);
-        auto src = busy_scene();
+        auto src = test::busy_attribute_scene();
         FrameResult a = render_kim(*src, params, 1);
         std::vector<uint32_t> counts_a;
         for (uint32_t y = 0; y < 38; ++y)
@@ -658,7 +621,7 @@ TEST_CASE("kim: close to full ray tracing on a busy scene, with far fewer rays")
     // The synthetic shading is linear inside each shape, so every correctly interpolated
     // pixel is exact; the remaining error is missing thin objects, which post-correction
     // recovers where a traced adaptive pixel touches them.
-    auto src = busy_scene();
+    auto src = test::busy_attribute_scene();
     auto psnr = [&](const FrameResult &r) {
         double se = 0;
         for (uint32_t y = 0; y < 38; ++y)
@@ -688,7 +651,7 @@ TEST_CASE("kim: a frame after other frames equals the first frame of a fresh plu
     // see different scenes (a plain plane, then the busy scene); frame 3 the busy scene again.
     for (const char *params : {"scene-size=300", "scene-size=300,block=4,ss=2"}) {
         CAPTURE(params);
-        auto busy = busy_scene();
+        auto busy = test::busy_attribute_scene();
         SyntheticAttributeSource plain(45, 38);
         plain.shapes[0].color = Rgb(0.9f, 0.1f, 0.4f);
         PluginSpec spec = parse_plugin_spec(std::string("kim:") + params);
