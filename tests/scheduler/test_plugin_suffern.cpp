@@ -5,6 +5,7 @@
 // determinism across thread counts.
 #include <doctest/doctest.h>
 
+#include <algorithm>
 #include <atomic>
 #include <cmath>
 #include <cstring>
@@ -183,15 +184,29 @@ struct Reference {
     std::set<size_t> used;  // lattice index J * (4W + 1) + I
 };
 
-Reference reference(const test::SyntheticAttributeSource &src, float tol, int levels) {
+/// The sRGB transfer function (IEC 61966-2-1) of v clamped to [0, 1], in double precision
+/// (the `display` option's comparison space); non-finite values stay non-finite.
+float srgb_encode(float v) {
+    if (!std::isfinite(v))
+        return v;
+    const double c = std::clamp(double(v), 0.0, 1.0);
+    return float(c <= 0.0031308 ? 12.92 * c : 1.055 * std::pow(c, 1.0 / 2.4) - 0.055);
+}
+
+/// tol: the pixel test; level2_factor x tol: the quadrant test; display: compare encoded colours.
+Reference reference(const test::SyntheticAttributeSource &src, float tol, int levels,
+                    bool display = false, float level2_factor = 1.f) {
     const uint32_t w = src.width(), h = src.height();
     Reference ref;
     ref.color.resize(size_t(w) * h);
     ref.level.resize(size_t(w) * h);
     ref.points.resize(size_t(w) * h);
-    auto within = [tol](Rgb a, Rgb b) {
-        return std::fabs(a.r - b.r) < tol && std::fabs(a.g - b.g) < tol &&
-               std::fabs(a.b - b.b) < tol;
+    auto within_tol = [display](Rgb a, Rgb b, float t) {
+        if (display) {
+            a = Rgb(srgb_encode(a.r), srgb_encode(a.g), srgb_encode(a.b));
+            b = Rgb(srgb_encode(b.r), srgb_encode(b.g), srgb_encode(b.b));
+        }
+        return std::fabs(a.r - b.r) < t && std::fabs(a.g - b.g) < t && std::fabs(a.b - b.b) < t;
     };
     auto avg = [](Rgb a, Rgb b, Rgb c, Rgb d) { return ((a + b) + (c + d)) * 0.25f; };
     for (uint32_t y = 0; y < h; ++y)
@@ -207,7 +222,9 @@ Reference reference(const test::SyntheticAttributeSource &src, float tol, int le
             // The square with top-left local point (i, j) and side s: in tolerance?
             auto ok = [&](int i, int j, int s) {
                 Rgb tl = v(i, j), tr = v(i + s, j), bl = v(i, j + s), br = v(i + s, j + s);
-                return within(tl, tr) && within(tl, bl) && within(br, tr) && within(br, bl);
+                const float t = s == 4 ? tol : tol * level2_factor;
+                return within_tol(tl, tr, t) && within_tol(tl, bl, t) && within_tol(br, tr, t) &&
+                       within_tol(br, bl, t);
             };
             auto sq = [&](int i, int j, int s) {
                 return avg(v(i, j), v(i + s, j), v(i, j + s), v(i + s, j + s));
@@ -380,12 +397,33 @@ TEST_CASE("suffern: equals the source's per-pixel algorithm; every used point tr
     const uint32_t w = 45, h = 37;
     test::SyntheticAttributeSource src(w, h);
     add_features(src);
-    for (const char *spec : {"suffern", "suffern:tolerance=0.01", "suffern:tolerance=0.2",
-                             "suffern:levels=1", "suffern:levels=0"}) {
-        CAPTURE(spec);
+    // A dark disc with a darker rim: an edge that only display=1 refines (0.01 against 0.03).
+    for (auto [r, level] : {std::pair{5.f, 0.01f}, std::pair{3.5f, 0.03f}}) {
+        test::AttrShape dim;
+        dim.kind = test::AttrShape::Kind::Disc;
+        dim.cx = 36.2f;
+        dim.cy = 8.6f;
+        dim.r = r;
+        dim.color = Rgb(level);
+        src.shapes.push_back(dim);
+    }
+    for (const char *spec :
+         {"suffern", "suffern:tolerance=0.01", "suffern:tolerance=0.2", "suffern:levels=1",
+          "suffern:levels=0", "suffern:display=1", "suffern:display=1,tolerance=0.2",
+          "suffern:level2-factor=4",
+          "suffern:display=1,level2-factor=4,tolerance=0.075", "suffern:tolerance=0.2,level2-factor=0.1"}) {
+        const std::string spec_text = spec;
+        CAPTURE(spec_text);
         PluginSpec s = parse_plugin_spec(spec);
-        Reference ref =
-            reference(src, float(s.params.get("tolerance")), s.params.get_int("levels"));
+        Reference ref = reference(src, float(s.params.get("tolerance")), s.params.get_int("levels"),
+                                  s.params.get_bool("display"),
+                                  float(s.params.get("level2-factor")));
+        // The options change which points are traced on this image (so the comparison below
+        // would catch a plugin that ignored them).
+        if (s.params.get_bool("display") || s.params.get("level2-factor") != 1.0)
+            CHECK(ref.used != reference(src, float(s.params.get("tolerance")),
+                                        s.params.get_int("levels"))
+                                  .used);
         LatticeRecorder rec(src);
         FrameResult r = render(rec, spec);
         CHECK_FALSE(rec.off_lattice.load());
@@ -490,6 +528,67 @@ TEST_CASE("suffern: tolerance 0 splits everything on a gradient, a huge one noth
     for (float v : layer(n, "level"))
         none = none && v == 0.f;
     CHECK(none);
+}
+
+TEST_CASE("suffern: display=1 refines a dark edge, not a bright step; level2-factor") {
+    // A vertical edge inside pixel column 10 (x < 10.3 takes the edge colour), as above.
+    const uint32_t w = 21, h = 13;
+    auto edge_image = [&](Rgb background, Rgb edge_color) {
+        test::SyntheticAttributeSource src(w, h);
+        src.shapes[0].color = background;
+        test::AttrShape edge;
+        edge.kind = test::AttrShape::Kind::HalfPlane;
+        edge.nx = 1;
+        edge.ny = 0;
+        edge.d = 10.3f;
+        edge.color = edge_color;
+        src.shapes.push_back(edge);
+        return src;
+    };
+    // Level of every pixel: column 10 at `edge_level`, the others 0.
+    auto levels_are = [&](const FrameResult &r, float edge_level) {
+        bool ok = true;
+        for (uint32_t y = 0; y < h; ++y)
+            for (uint32_t x = 0; x < w; ++x)
+                ok = ok && layer(r, "level")[size_t(y) * w + x] == (x == 10 ? edge_level : 0.f);
+        return ok;
+    };
+    // Dark: 0.01 against 0.03 differs by 0.02 in linear radiance (under the tolerance 0.05),
+    // by 0.090 once encoded (0.0998 against 0.1898).
+    const test::SyntheticAttributeSource dark = edge_image(Rgb(0.01f), Rgb(0.03f));
+    CHECK(levels_are(render(dark, "suffern"), 0.f));
+    CHECK(levels_are(render(dark, "suffern:display=1"), 2.f));
+    // Bright: 0.85 against 0.95 differs by 0.1 in linear radiance, by 0.047 encoded (0.9309
+    // against 0.9777).
+    const test::SyntheticAttributeSource bright = edge_image(Rgb(0.85f), Rgb(0.95f));
+    CHECK(levels_are(render(bright, "suffern"), 2.f));
+    CHECK(levels_are(render(bright, "suffern:display=1"), 0.f));
+    // Above 1 everything displays as 1: no split however large the step.
+    const test::SyntheticAttributeSource over = edge_image(Rgb(2.f), Rgb(40.f));
+    CHECK(levels_are(render(over, "suffern"), 2.f));
+    CHECK(levels_are(render(over, "suffern:display=1"), 0.f));
+
+    // level2-factor: a step of 0.1 splits the pixel (0.1 >= 0.05) and, with factor 1, its left
+    // quadrants; with factor 2.5 (quadrant tolerance 0.125) or 4 they stay at level 1; a step of
+    // 0.3 splits them again with factor 4 (0.3 >= 0.2) but not with factor 8.
+    const test::SyntheticAttributeSource step = edge_image(Rgb(0.2f), Rgb(0.3f));
+    CHECK(levels_are(render(step, "suffern:level2-factor=1"), 2.f));
+    CHECK(levels_are(render(step, "suffern:level2-factor=2.5"), 1.f));
+    CHECK(levels_are(render(step, "suffern:level2-factor=4"), 1.f));
+    const test::SyntheticAttributeSource big = edge_image(Rgb(0.2f), Rgb(0.5f));
+    CHECK(levels_are(render(big, "suffern:level2-factor=4"), 2.f));
+    CHECK(levels_are(render(big, "suffern:level2-factor=8"), 1.f));
+    // Below 1 the quadrant test is stricter than the pixel's: 0.04 passes the pixel test, so
+    // nothing splits, whatever the factor.
+    const test::SyntheticAttributeSource faint = edge_image(Rgb(0.2f), Rgb(0.24f));
+    CHECK(levels_are(render(faint, "suffern:level2-factor=0.5"), 0.f));
+
+    // Bad values name the plugin and the key.
+    CHECK(test::spec_error("suffern:display=2").find("display") != std::string::npos);
+    CHECK(test::spec_error("suffern:level2-factor=0").find("level2-factor") != std::string::npos);
+    PluginParams q(find_plugin("suffern")->params);
+    q.set("level2-factor", std::nan(""));
+    CHECK_THROWS_AS(find_plugin("suffern")->make(q), std::invalid_argument);
 }
 
 TEST_CASE("suffern: a NaN sample is counted, refined around and kept out of the image") {
