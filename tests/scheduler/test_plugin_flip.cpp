@@ -213,6 +213,9 @@ TEST_CASE("registry: both plugins, the paper's defaults, parameter checks") {
         CHECK(spec.params.get("threshold_scale") == 1);
         CHECK(spec.params.get("per_channel") == 0);
         CHECK(spec.params.get("texture_average") == 0);
+        CHECK(spec.params.get("share_weights") == 0);  // the paper's equal weights
+        CHECK_THROWS_AS(sampling::parse_plugin_spec(std::string(name) + ":share_weights=2"),
+                        std::invalid_argument);
         // '-' and '_' are the same in keys.
         CHECK(sampling::parse_plugin_spec(std::string(name) + ":threshold-scale=2")
                   .params.get("threshold_scale") == 2);
@@ -386,19 +389,22 @@ TEST_CASE("a vertical edge activates exactly the pixels whose pattern straddles 
         }
 }
 
-TEST_CASE("weights: an active pixel is the equal-weight mean of its pattern and RGSS samples") {
+TEST_CASE("weights: an active pixel is the equal-weight mean of its pattern and RGSS samples; "
+          "share_weights=1 weighs pattern samples by their pixel share") {
     const uint32_t w = 20, h = 12;
     auto f = [](float x, float y) {
         const float base = 0.1f + 0.01f * x + 0.02f * y;
         return x < 9.4f ? Rgb(base) : Rgb(base + 0.6f, base + 0.3f, base);
     };
-    for (bool quad : {false, true})
+    for (int variant = 0; variant < 4; ++variant)
         for (uint32_t n : {1u, 2u, 3u}) {
+            const bool share = variant >= 2, quad = variant % 2 == 1;
+            CAPTURE(share);
             CAPTURE(quad);
             CAPTURE(n);
             FunctionSource src(w, h, f);
             auto p = make(std::string(quad ? "flipquad" : "fliptri") +
-                          ":extra=" + std::to_string(n * n));
+                          ":extra=" + std::to_string(n * n) + (share ? ",share_weights=1" : ""));
             FrameResult r;
             render(*p, src, r);
             const sampling::FrameLayer *active = layer(r, "active");
@@ -429,9 +435,11 @@ TEST_CASE("weights: an active pixel is the equal-weight mean of its pattern and 
                         CHECK(xs.size() == n * n);
                         CHECK(ys.size() == n * n);
                     }
-                    // Expected colour: the mean of every sample, equal weights.
+                    // Expected colour: the mean of every sample, equal weights; with share_weights
+                    // in an active pixel, a pattern sample weighs 1 / (pixels that use it): it
+                    // is shared across a pixel edge it lies on, unless that is the image border.
                     Rgb sum(0.f);
-                    int count = 0;
+                    float count = 0;
                     for (const P3 &q : expected_pattern(quad, x, y)) {
                         // The point as the plugin hands it to the source (border clamped).
                         auto coord = [](int64_t t3, uint32_t size) {
@@ -440,14 +448,19 @@ TEST_CASE("weights: an active pixel is the equal-weight mean of its pattern and 
                             const int64_t pix = t3 / 3, rem = t3 % 3;
                             return float(pix) + (rem == 0 ? 0.f : rem == 1 ? 1.f / 3.f : 2.f / 3.f);
                         };
-                        sum += f(coord(q.first, w), coord(q.second, h));
-                        ++count;
+                        auto users = [](int64_t t3, uint32_t size) {
+                            return t3 % 3 == 0 && t3 > 0 && t3 < 3 * int64_t(size) ? 2.f : 1.f;
+                        };
+                        const float weight =
+                            share && act ? 1.f / (users(q.first, w) * users(q.second, h)) : 1.f;
+                        sum += f(coord(q.first, w), coord(q.second, h)) * weight;
+                        count += weight;
                     }
                     for (auto [fx, fy] : want) {
                         sum += f(float(x) + fx, float(y) + fy);
-                        ++count;
+                        count += 1.f;
                     }
-                    const Rgb e = sum / float(count);
+                    const Rgb e = sum / count;
                     CHECK(r.color[i].r == doctest::Approx(e.r).epsilon(1e-5));
                     CHECK(r.color[i].g == doctest::Approx(e.g).epsilon(1e-5));
                     CHECK(r.color[i].b == doctest::Approx(e.b).epsilon(1e-5));
