@@ -216,6 +216,7 @@ struct ExtraSum {
 /// deterministic).
 struct TileCounts {
     uint64_t samples = 0, rays = 0, nan = 0, active = 0;
+    ShadowRayTally shadow;
 };
 
 struct Params {
@@ -507,7 +508,7 @@ class FlipSampler final : public PixelSampler {
             return;
         source.evaluate_batch(std::span<const CameraSample>(pk.cs.data(), pk.n),
                               std::span<Sample>(pk.out.data(), pk.n));
-        shadow_.add(std::span<const Sample>(pk.out.data(), pk.n));
+        counts.shadow.add(std::span<const Sample>(pk.out.data(), pk.n));
         for (uint32_t k = 0; k < pk.n; ++k) {
             const Sample &s = pk.out[k];
             const SiteTarget &t = pk.target[k];
@@ -561,6 +562,7 @@ class FlipSampler final : public PixelSampler {
         flush(edges, source, counts);
         flush(corners, source, counts);
         samples_ += counts.samples;
+        shadow_.add(counts.shadow);
         rays_total_ += counts.rays;
         nan_ += counts.nan;
     }
@@ -701,7 +703,7 @@ class FlipSampler final : public PixelSampler {
                 return;
             source.evaluate_batch(std::span<const CameraSample>(pk.cs.data(), pk.n),
                                   std::span<Sample>(pk.out.data(), pk.n));
-            shadow_.add(std::span<const Sample>(pk.out.data(), pk.n));
+            counts.shadow.add(std::span<const Sample>(pk.out.data(), pk.n));
             for (uint32_t k = 0; k < pk.n; ++k) {
                 ExtraSum &e = *pk.target[k];
                 const Sample &smp = pk.out[k];
@@ -780,7 +782,8 @@ class FlipSampler final : public PixelSampler {
                         }
                     }
         flush_extra();
-        // Resolve the active pixels: equal weights over pattern and extra samples (box filter).
+        // Resolve the active pixels: pattern and extra samples (box filter; equal weights, or
+        // the pattern samples' shares with share_weights).
         if (counts.active)
             for (uint32_t y = tile.y0; y < tile.y1; ++y)
                 for (uint32_t x = tile.x0; x < tile.x1; ++x)
@@ -789,6 +792,7 @@ class FlipSampler final : public PixelSampler {
                         resolve(x, y, pixel_[pi], &extra_[pi]);
                     }
         samples_ += counts.samples;
+        shadow_.add(counts.shadow);
         rays_total_ += counts.rays;
         nan_ += counts.nan;
         active_ += counts.active;
