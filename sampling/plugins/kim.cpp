@@ -508,6 +508,7 @@ class KimSampler final : public PixelSampler {
     void trace(const std::vector<Coord> &coords, const SampleSource &source, Store &&store) {
         constexpr size_t kBatch = 64;
         Scratch &sc = scratch();
+        ShadowRayTally tally;
         for (size_t i0 = 0; i0 < coords.size(); i0 += kBatch) {
             const size_t n = std::min(kBatch, coords.size() - i0);
             sc.cs.resize(n);
@@ -516,10 +517,11 @@ class KimSampler final : public PixelSampler {
                 sc.cs[k] = camera_sample(coords[i0 + k].x, coords[i0 + k].y);
             source.evaluate_batch(std::span<const CameraSample>(sc.cs.data(), n),
                                   std::span<Sample>(sc.out.data(), n));
-            shadow_.add(std::span<const Sample>(sc.out.data(), n));
+            tally.add(std::span<const Sample>(sc.out.data(), n));
             for (size_t k = 0; k < n; ++k)
                 store(i0 + k, sc.out[k]);
         }
+        shadow_.add(tally);
     }
 
     /// Stores a traced sample into point i (attributes, colour, rays; a post-correction ray
