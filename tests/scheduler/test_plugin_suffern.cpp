@@ -553,35 +553,43 @@ TEST_CASE("suffern: display=1 refines a dark edge, not a bright step; level2-fac
                 ok = ok && layer(r, "level")[size_t(y) * w + x] == (x == 10 ? edge_level : 0.f);
         return ok;
     };
-    // Dark: 0.01 against 0.03 differs by 0.02 in linear radiance (under the tolerance 0.05),
-    // by 0.090 once encoded (0.0998 against 0.1898).
-    const test::SyntheticAttributeSource dark = edge_image(Rgb(0.01f), Rgb(0.03f));
-    CHECK(levels_are(render(dark, "suffern"), 0.f));
-    CHECK(levels_are(render(dark, "suffern:display=1"), 2.f));
-    // Bright: 0.85 against 0.95 differs by 0.1 in linear radiance, by 0.047 encoded (0.9309
-    // against 0.9777).
-    const test::SyntheticAttributeSource bright = edge_image(Rgb(0.85f), Rgb(0.95f));
-    CHECK(levels_are(render(bright, "suffern"), 2.f));
-    CHECK(levels_are(render(bright, "suffern:display=1"), 0.f));
-    // Above 1 everything displays as 1: no split however large the step.
-    const test::SyntheticAttributeSource over = edge_image(Rgb(2.f), Rgb(40.f));
-    CHECK(levels_are(render(over, "suffern"), 2.f));
-    CHECK(levels_are(render(over, "suffern:display=1"), 0.f));
-
-    // level2-factor: a step of 0.1 splits the pixel (0.1 >= 0.05) and, with factor 1, its left
-    // quadrants; with factor 2.5 (quadrant tolerance 0.125) or 4 they stay at level 1; a step of
-    // 0.3 splits them again with factor 4 (0.3 >= 0.2) but not with factor 8.
-    const test::SyntheticAttributeSource step = edge_image(Rgb(0.2f), Rgb(0.3f));
-    CHECK(levels_are(render(step, "suffern:level2-factor=1"), 2.f));
-    CHECK(levels_are(render(step, "suffern:level2-factor=2.5"), 1.f));
-    CHECK(levels_are(render(step, "suffern:level2-factor=4"), 1.f));
-    const test::SyntheticAttributeSource big = edge_image(Rgb(0.2f), Rgb(0.5f));
-    CHECK(levels_are(render(big, "suffern:level2-factor=4"), 2.f));
-    CHECK(levels_are(render(big, "suffern:level2-factor=8"), 1.f));
-    // Below 1 the quadrant test is stricter than the pixel's: 0.04 passes the pixel test, so
-    // nothing splits, whatever the factor.
-    const test::SyntheticAttributeSource faint = edge_image(Rgb(0.2f), Rgb(0.24f));
-    CHECK(levels_are(render(faint, "suffern:level2-factor=0.5"), 0.f));
+    struct Case {
+        float background, edge;
+        const char *spec;
+        float edge_level;  ///< expected level of column 10
+    };
+    const Case cases[] = {
+        // Dark: 0.01 against 0.03 differs by 0.02 in linear radiance (under the tolerance
+        // 0.05), by 0.090 once encoded (0.0998 against 0.1898).
+        {0.01f, 0.03f, "suffern", 0.f},
+        {0.01f, 0.03f, "suffern:display=1", 2.f},
+        // Bright: 0.85 against 0.95 differs by 0.1 in linear radiance, by 0.047 encoded (0.9309
+        // against 0.9777).
+        {0.85f, 0.95f, "suffern", 2.f},
+        {0.85f, 0.95f, "suffern:display=1", 0.f},
+        // Above 1 everything displays as 1: no split however large the step.
+        {2.f, 40.f, "suffern", 2.f},
+        {2.f, 40.f, "suffern:display=1", 0.f},
+        // level2-factor: a step of 0.1 splits the pixel (0.1 >= 0.05) and, with factor 1, its
+        // left quadrants; with factor 2.5 (quadrant tolerance 0.125) or 4 they stay at level 1.
+        {0.2f, 0.3f, "suffern:level2-factor=1", 2.f},
+        {0.2f, 0.3f, "suffern:level2-factor=2.5", 1.f},
+        {0.2f, 0.3f, "suffern:level2-factor=4", 1.f},
+        // A step of 0.3 splits them again with factor 4 (0.3 >= 0.2) but not with factor 8.
+        {0.2f, 0.5f, "suffern:level2-factor=4", 2.f},
+        {0.2f, 0.5f, "suffern:level2-factor=8", 1.f},
+        // Below 1 the quadrant test is stricter than the pixel's: 0.04 passes the pixel test,
+        // so nothing splits, whatever the factor.
+        {0.2f, 0.24f, "suffern:level2-factor=0.5", 0.f},
+    };
+    for (const Case &c : cases) {
+        const std::string spec = c.spec;
+        CAPTURE(spec);
+        CAPTURE(c.background);
+        CAPTURE(c.edge);
+        const test::SyntheticAttributeSource src = edge_image(Rgb(c.background), Rgb(c.edge));
+        CHECK(levels_are(render(src, spec), c.edge_level));
+    }
 
     // Bad values name the plugin and the key.
     CHECK(test::spec_error("suffern:display=2").find("display") != std::string::npos);
