@@ -2,6 +2,7 @@
 // normalisation, reciprocity, sample_f/f/pdf consistency, energy (white furnace) and the edge
 // cases that must never produce NaN or Inf.
 #include <cmath>
+#include <complex>
 #include <random>
 #include <vector>
 
@@ -99,6 +100,29 @@ TEST_CASE("Fresnel: conductor against closed forms") {
     for (float c : {0.1f, 0.5f, 0.9f})
         CHECK(fr_complex(c, 1.5f, 0.f) == Approx(fr_dielectric(c, 1.5f)).epsilon(1e-4));
     CHECK(fr_complex(0.f, 0.2f, 3.9f) == Approx(1.f));
+    // Everywhere: the complex Fresnel equations in double precision (fr_complex evaluates them
+    // in real arithmetic), across incidence for metals, a dielectric, total internal reflection
+    // (k = 0, eta < 1) and near-degenerate pairs.
+    auto reference = [](double c, double eta, double k) {
+        using C = std::complex<double>;
+        const C e(eta, k);
+        const C cos_t = std::sqrt(C(1.0) - C(1.0 - c * c) / (e * e));
+        const C r_parl = (e * c - cos_t) / (e * c + cos_t);
+        const C r_perp = (C(c) - e * cos_t) / (C(c) + e * cos_t);
+        return 0.5 * (std::norm(r_parl) + std::norm(r_perp));
+    };
+    const std::pair<float, float> iors[] = {{0.2f, 3.9f}, {1.1f, 2.6f}, {2.7f, 3.8f},
+                                            {1.5f, 0.f},  {0.5f, 0.f},  {1.f, 1e-3f},
+                                            {0.05f, 5.f}, {3.f, 0.1f},  {1.f, 0.f}};
+    for (const std::pair<float, float> &ior : iors)
+        for (int i = 1; i <= 40; ++i) {
+            const float eta = ior.first, k = ior.second;
+            const float c = float(i) / 40.f;
+            CAPTURE(eta);
+            CAPTURE(k);
+            CAPTURE(c);
+            CHECK(std::abs(double(fr_complex(c, eta, k)) - reference(c, eta, k)) <= 2e-6);
+        }
     CHECK(fr_complex(0.7f, 1.f, 1e4f) > 0.999f);
     // "reflectance" parameter mapping reproduces r at normal incidence.
     Rgb r(0.9f, 0.5f, 0.05f);
