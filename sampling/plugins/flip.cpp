@@ -51,7 +51,8 @@
 // own, so every shared point is traced once and written by one tile; the later stages read the
 // neighbours' ones (read-only after the barrier). Samples are stored per lattice kind
 // (vertical-edge, horizontal-edge and corner sites; FLIPTRI keeps only the lines it uses),
-// per-pixel state per pixel, all in 8x8 blocks so that a tile's working data is contiguous. The
+// per-pixel state per pixel, all in 8x8 blocks so that a tile's working data is contiguous, and
+// on huge pages where the kernel offers them (sampling/large_buffer.h). The
 // gradient stage also sums the pattern's colours and ray shares per pixel, so the supersample stage
 // touches only its own pixels. Integer counts go to atomics once per tile (order-free); the frame
 // average is summed serially in a fixed order; the outputs are written row-major and swapped into
@@ -112,6 +113,7 @@
 #include <string>
 #include <vector>
 
+#include "sampling/large_buffer.h"
 #include "sampling/plugins/plugins.h"
 
 namespace tessera::sampling {
@@ -168,7 +170,7 @@ class BlockedGrid {
 
   private:
     BlockedLayout layout_;
-    std::vector<T> data_;
+    LargeVector<T> data_;
 };
 
 /// One traced pattern sample.
@@ -816,10 +818,10 @@ class FlipSampler final : public PixelSampler {
     // Per pixel, in 8x8 blocks (pix_): the gradient pass's results, its sums (compact, for the
     // serial reduction of the frame average), and the active pixels' extra samples.
     BlockedLayout pix_;
-    std::vector<PixelData> pixel_;
-    std::array<std::vector<float>, 3> gsum_;  ///< sum of the pixel's gradients, per channel
-    std::vector<uint8_t> npairs_;             ///< finite pairs in gsum_
-    std::vector<ExtraSum> extra_;
+    LargeVector<PixelData> pixel_;
+    std::array<LargeVector<float>, 3> gsum_;  ///< sum of the pixel's gradients, per channel
+    LargeVector<uint8_t> npairs_;             ///< finite pairs in gsum_
+    LargeVector<ExtraSum> extra_;
     // Row-major outputs, swapped into the FrameResult by end_frame.
     std::vector<Rgb> color_out_;
     std::vector<float> rays_out_, active_out_, ratio_out_;

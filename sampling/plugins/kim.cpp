@@ -98,12 +98,12 @@
 //  - Sec. 5 traces a pixel in full when any check fails (no partial re-use, e.g. of geometry
 //    with fresh shadow rays): kept, since SampleSource has no "shadow rays only" call anyway.
 //
-// CPU layout: per lattice point a 56-byte attribute vector and a 24-byte record (colour, rays,
+// CPU layout: per lattice point a 60-byte attribute vector and a 24-byte record (colour, rays,
 // state, diagnostics), stored in blocks of 8 x 8 pixels (the default tile) so that a tile's
-// points are contiguous: about 80 bytes x ss^2 per pixel (84 MB at 1024^2, 1.3 GB at ss=4).
-// Nothing is allocated per sample; buffers persist across frames. The FrameScheduler spawns its
-// workers per stage, which costs about 1-2 ms per stage on 16 threads; the default frame has
-// 8 stages (base, a1, a2, four scans, resolve).
+// points are contiguous: 84 bytes x ss^2 per pixel (84 MB at 1024^2, 1.3 GB at ss=4), on huge
+// pages where the kernel offers them (sampling/large_buffer.h: every stage walks all of it).
+// Nothing is allocated per sample; buffers persist across frames. The FrameScheduler's workers
+// persist too; the default frame has 8 stages (base, a1, a2, four scans, resolve).
 //
 // Diagnostics (FrameResult layers, one value per pixel; with ss > 1, over the pixel's samples):
 //  "traced"        1 traced, 0 interpolated (ss > 1: fraction of the samples traced)
@@ -124,6 +124,7 @@
 #include <string>
 #include <vector>
 
+#include "sampling/large_buffer.h"
 #include "sampling/plugins/plugins.h"
 
 namespace tessera::sampling {
@@ -832,8 +833,8 @@ class KimSampler final : public PixelSampler {
     uint32_t block_shift_ = 3, block_mask_ = 7, blocks_x_ = 0;
 
     // Per lattice point (blocked layout, see at()).
-    std::vector<Attr> attr_;
-    std::vector<Point> pts_;
+    LargeVector<Attr> attr_;
+    LargeVector<Point> pts_;
 
     // Per pixel (row-major), written by the resolve stage.
     std::vector<Rgb> pix_color_;
