@@ -463,6 +463,12 @@ class FlipSampler final : public PixelSampler {
         return float(ux * uy);
     }
 
+    /// 1 / users(kind, i, j), from a table (users is 1, 2 or 4): the same values, no division.
+    float inv_users(SiteKind kind, uint32_t i, uint32_t j) const {
+        static constexpr float kInverse[5] = {0.f, 1.f, 0.5f, 1.f / 3.f, 0.25f};
+        return kInverse[uint32_t(users(kind, i, j))];
+    }
+
     /// The pattern of pixel (x, y): FLIPTRI corner, vertical edge, horizontal edge; FLIPQUAD
     /// left, top, right, bottom (the order of pairs_).
     template <class Fn>
@@ -555,7 +561,7 @@ class FlipSampler final : public PixelSampler {
                             t.texture = p_.texture_average
                                             ? &texture_[size_t(k)](ci(kind, i), cj(kind, j))
                                             : nullptr;
-                            t.inv_users = 1.f / users(kind, i, j);
+                            t.inv_users = inv_users(kind, i, j);
                             if (++pk.n == kPacket)
                                 flush(pk, source, counts);
                         });
@@ -584,7 +590,7 @@ class FlipSampler final : public PixelSampler {
                 for_pixel_sites(x, y, [&](int k, SiteKind kind, uint32_t i, uint32_t j) {
                     s[size_t(k)] = &site(kind, i, j);
                     if (p_.share_weights)
-                        share[size_t(k)] = 1.f / users(kind, i, j);
+                        share[size_t(k)] = inv_users(kind, i, j);
                 });
                 // The pattern's part of the resolve (equal weights), while the sites are at hand.
                 bool all_finite = true;
@@ -698,6 +704,7 @@ class FlipSampler final : public PixelSampler {
     // Stage "supersample": decision, extra samples and resolve
 
     void supersample(const PixelRect &tile, const SampleSource &source) {
+        const bool diag = diagnostics();
         TileCounts counts;
         Packet<ExtraSum *> pk;
         auto flush_extra = [&] {
@@ -751,18 +758,21 @@ class FlipSampler final : public PixelSampler {
                         const size_t pi = pix_(x, y);
                         const PixelData &d = pixel_[pi];
                         bool active = false;
-                        float ratio = 0;
-                        for (int c = 0; c < nch_; ++c) {
-                            const double t = threshold_[size_t(c)];
-                            const float g = d.gmax[size_t(c)];
-                            active = active || double(g) > t;
-                            const float rc = t > 0
-                                                 ? float(std::min(double(g) / t, double(kRatioCap)))
-                                                 : (g > 0 ? kRatioCap : 0.f);
-                            ratio = std::max(ratio, rc);
-                        }
+                        for (int c = 0; c < nch_; ++c)
+                            active = active || double(d.gmax[size_t(c)]) > threshold_[size_t(c)];
                         const size_t idx = size_t(y) * width_ + x;
-                        ratio_out_[idx] = ratio;
+                        if (diag) {  // the "gradient" layer (a division per channel)
+                            float ratio = 0;
+                            for (int c = 0; c < nch_; ++c) {
+                                const double t = threshold_[size_t(c)];
+                                const float g = d.gmax[size_t(c)];
+                                const float rc =
+                                    t > 0 ? float(std::min(double(g) / t, double(kRatioCap)))
+                                          : (g > 0 ? kRatioCap : 0.f);
+                                ratio = std::max(ratio, rc);
+                            }
+                            ratio_out_[idx] = ratio;
+                        }
                         active_out_[idx] = active ? 1.f : 0.f;
                         if (!active) {
                             resolve(x, y, d, nullptr);
