@@ -453,20 +453,20 @@ class FlipSampler final : public PixelSampler {
 
     /// Pixels whose pattern uses site (i, j) (2 for an edge, 4 for a corner; fewer on the
     /// image border).
-    float users(SiteKind kind, uint32_t i, uint32_t j) const {
+    uint32_t users(SiteKind kind, uint32_t i, uint32_t j) const {
         const uint32_t ux = (i > 0 ? 1u : 0u) + (i < width_ ? 1u : 0u);
         const uint32_t uy = (j > 0 ? 1u : 0u) + (j < height_ ? 1u : 0u);
         if (kind == SiteKind::Vertical)
-            return float(ux);
+            return ux;
         if (kind == SiteKind::Horizontal)
-            return float(uy);
-        return float(ux * uy);
+            return uy;
+        return ux * uy;
     }
 
     /// 1 / users(kind, i, j), from a table (users is 1, 2 or 4): the same values, no division.
     float inv_users(SiteKind kind, uint32_t i, uint32_t j) const {
         static constexpr float kInverse[5] = {0.f, 1.f, 0.5f, 1.f / 3.f, 0.25f};
-        return kInverse[uint32_t(users(kind, i, j))];
+        return kInverse[users(kind, i, j)];
     }
 
     /// The pattern of pixel (x, y): FLIPTRI corner, vertical edge, horizontal edge; FLIPQUAD
