@@ -319,19 +319,41 @@ void RegionTree::build(int n, int depth) {
     // NOTE: nodes_ may reallocate below; work on a copy of the bounds and index by n.
     const FloatRect b = nodes_[size_t(n)].bounds;
     const double a = area(b);
+    // The part of the region this quadrant samples. Completion is judged on its pixels alone: the
+    // margin's pixels belong to a neighbour, which stops sampling them by its own tree, so an
+    // error there may never fall however long this quadrant samples its side (its pixels would
+    // run to max_spp, or a region wholly in the margin would keep the quadrant open with
+    // nothing to sample). The margin still steers where regions split (the whole region's
+    // error is halved), so error at the seams is seen from both sides.
+    const FloatRect own{std::max(b.x0, double(quadrant_.x0)), std::max(b.y0, double(quadrant_.y0)),
+                        std::min(b.x1, double(quadrant_.x1)), std::min(b.y1, double(quadrant_.y1))};
+    const bool any_own = own.x1 > own.x0 && own.y1 > own.y0;
+    Node &node = nodes_[size_t(n)];
     if (has_unknown(b)) {
-        // Too few samples somewhere: the estimate is meaningless, keep the region open whole.
-        nodes_[size_t(n)].error = kInf;
-        nodes_[size_t(n)].complete = false;
-        return;
+        // Too few samples somewhere: the estimate is meaningless. Keep the region open whole
+        // when that is in its own part (a region wholly in the margin is complete).
+        node.error = kInf;
+        node.own_error = any_own && has_unknown(own) ? kInf : 0.0;
+        if (node.own_error == kInf || !any_own) {
+            node.complete = !any_own;
+            return;
+        }
     }
     const double sum = integral(b);
     // e_b = (r / N) * sum e_p with r = sqrt(A_b / A_image) and N = A_b, i.e.
     // sum / sqrt(A_b * A_image) (Dammertz et al. 2010, eq. 3).
     const double e = a > 0 ? sum / std::sqrt(a * image_area_) : 0.0;
-    nodes_[size_t(n)].error = e;
-    if (e < params_.target) {
-        nodes_[size_t(n)].complete = true;
+    if (node.error != kInf)
+        node.error = e;
+    const double a_own = any_own ? area(own) : 0.0;
+    // The own part's mean error at the whole region's scale r: a region straddling the seam
+    // is held to the same standard as one inside the quadrant, only over the pixels that
+    // sampling here can improve (its own part's smaller area would lower e_b by itself).
+    node.own_error = !any_own    ? 0.0
+                     : a_own == a ? e
+                                  : integral(own) / a_own * std::sqrt(a / image_area_);
+    if (node.own_error < params_.target) {
+        node.complete = true;
         return;
     }
     const int axis = extent(b, 0) >= extent(b, 1) ? 0 : 1;
@@ -372,11 +394,25 @@ bool RegionTree::complete() const {
     return nodes_.empty() || nodes_[0].complete;
 }
 
+PixelBounds RegionTree::sample_bounds(const FloatRect &b) const {
+    PixelBounds r = b.outward();
+    if (cell_ <= 1)
+        return r;
+    // Built from cell sums, the error is known per cell only: sampling part of a cell cannot
+    // lower the part of its error that the unsampled pixels hold, which a region reads as
+    // spread over the whole cell, so a region covering part of a cell could run to max_spp
+    // without converging. Whole cells are sampled instead.
+    auto down = [&](int v, int o) { return o + (v - o) / cell_ * cell_; };
+    auto up = [&](int v, int o) { return o + (v - o + cell_ - 1) / cell_ * cell_; };
+    return {down(r.x0, grown_.x0), down(r.y0, grown_.y0), std::min(up(r.x1, grown_.x0), grown_.x1),
+            std::min(up(r.y1, grown_.y0), grown_.y1)};
+}
+
 void RegionTree::collect(int n, const PixelBounds &tile, std::vector<PixelBounds> &out) const {
     const Node &node = nodes_[size_t(n)];
     if (node.complete)
         return;
-    PixelBounds r = intersect(node.bounds.outward(), tile);
+    PixelBounds r = intersect(sample_bounds(node.bounds), tile);
     if (r.empty())
         return;
     if (node.is_leaf()) {
@@ -417,7 +453,7 @@ void RegionTree::collect_mask(int n, const PixelBounds &clip, int ox, int oy, ui
     const Node &node = nodes_[size_t(n)];
     if (node.complete)
         return;
-    PixelBounds r = intersect(node.bounds.outward(), clip);
+    PixelBounds r = intersect(sample_bounds(node.bounds), clip);
     if (r.empty())
         return;
     if (node.is_leaf()) {
@@ -447,7 +483,7 @@ bool RegionTree::active_at(int n, int x, int y) const {
     const Node &node = nodes_[size_t(n)];
     if (node.complete)
         return false;
-    PixelBounds r = node.bounds.outward();
+    PixelBounds r = sample_bounds(node.bounds);
     if (x < r.x0 || x >= r.x1 || y < r.y0 || y >= r.y1)
         return false;
     if (node.is_leaf())

@@ -12,8 +12,11 @@
 //    longer axis at the floating-point position that divides its error equally, and both halves
 //    are built recursively; else it stays one open leaf.
 //  - the tree's root covers the quadrant grown by one tile (clamped to the image), so error at
-//    the seams is seen from both sides; leaf bounds used for scheduling round outward to whole
-//    pixels.
+//    the seams is seen from both sides when regions split; completion (e_b < target, and the
+//    unknown check) is judged on the pixels inside the quadrant only (their mean error, at the
+//    whole region's scale r), since the margin is sampled by the neighbour's tree and its
+//    error may never fall here (a region wholly in the margin is complete); leaf bounds used
+//    for scheduling round outward to whole pixels.
 //
 // Error integrals over floating-point rectangles weight a partially covered pixel by its covered
 // fraction (the error is treated as constant over each pixel's unit square). rebuild() builds a
@@ -87,7 +90,8 @@ class RegionTree {
     struct Node {
         FloatRect bounds;         ///< pixel units, inside grown()
         double error = 0;         ///< region error e_b; +inf when some pixel has no estimate
-        bool complete = false;    ///< leaf: e_b < target; inner node: both children complete
+        double own_error = 0;     ///< e_b over the pixels inside the quadrant (decides completion)
+        bool complete = false;    ///< leaf: own_error < target; inner node: both children complete
         int child[2] = {-1, -1};  ///< indices into nodes(); -1 for leaves
         bool is_leaf() const { return child[0] < 0; }
     };
@@ -119,14 +123,16 @@ class RegionTree {
     bool complete() const;
 
     /// Clears `out`, then appends the parts of `tile` (clipped to the quadrant) that lie in
-    /// incomplete leaves, as pixel rectangles rounded outward (they may overlap each other by a
-    /// pixel where a split falls inside a pixel; callers must not sample a pixel twice — use
+    /// incomplete leaves, as pixel rectangles rounded outward (to whole cells after
+    /// rebuild_cells: the error is known per cell only). They may overlap each other where a
+    /// split falls inside a pixel (or cell); callers must not sample a pixel twice — use
     /// `pixel_active`, or sample the union). Empty when the tile is inside completed regions.
     /// Allocation-free once `out` has capacity.
     void active_rects(const PixelBounds &tile, std::vector<PixelBounds> &out) const;
 
     /// True if pixel (x, y) lies in the quadrant and in the outward-rounded bounds of an
-    /// incomplete leaf (a pixel only partly covered by an incomplete leaf is active).
+    /// incomplete leaf (a pixel only partly covered by an incomplete leaf is active; after
+    /// rebuild_cells, every pixel of a cell that an incomplete leaf touches).
     bool pixel_active(int x, int y) const;
 
     /// The active pixels of a tile of at most 8x8 pixels as a bit mask: bit
@@ -158,6 +164,9 @@ class RegionTree {
     bool has_unknown(const FloatRect &r) const;
     double split_position(const FloatRect &r, int axis, double total) const;
     void build(int node, int depth);
+    /// The pixels a region's samples go to: its bounds rounded outward to pixels, and to whole
+    /// cells when built from cell sums.
+    PixelBounds sample_bounds(const FloatRect &b) const;
     void collect(int node, const PixelBounds &tile, std::vector<PixelBounds> &out) const;
     void collect_mask(int node, const PixelBounds &clip, int ox, int oy, uint64_t &mask) const;
     bool active_at(int node, int x, int y) const;

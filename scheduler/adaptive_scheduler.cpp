@@ -721,12 +721,14 @@ bool AdaptiveScheduler::rebuild_quadrant(int q, RenderContext &ctx, WorkerState 
     const uint32_t idle = 1u - quad.active.load(std::memory_order_relaxed);
     sampling::RegionTree &next = quad.trees[idle];
     next.rebuild_cells(cells, params);
-    // Refining: complete means "no open leaf over the quadrant's own pixels". An open leaf
-    // only in the one-tile margin belongs to a neighbour, which may find its own, differently
-    // cut region there complete; waiting for it would stall every refinement.
-    // A pass that took no sample (every open pixel at the level's cap) counts as complete too:
-    // nothing more can happen at this level.
-    const bool complete = refine_ ? next.open_area() <= 0.0 || pass_idle : next.complete();
+    // Complete means "no open leaf over the quadrant's own pixels" (nothing left for its tiles
+    // to sample). An open leaf only in the one-tile margin belongs to a neighbour, which may
+    // find its own, differently cut region there complete and stop sampling it: waiting for it
+    // would keep this quadrant open with nothing active, and the render would run out its
+    // passes without converging (or stall every refinement).
+    // Refining, a pass that took no sample (every open pixel at the level's cap) counts as
+    // complete too: nothing more can happen at this level.
+    const bool complete = next.open_area() <= 0.0 || (refine_ && pass_idle);
     quad.active.store(idle, std::memory_order_release);
     ws.writer_wait_s += quad.locks.sweep();
 

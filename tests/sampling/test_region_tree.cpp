@@ -182,6 +182,31 @@ TEST_CASE("random error images: leaves partition the root; errors match the refe
         for (const auto &node : t.nodes())
             CHECK(node.error ==
                   doctest::Approx(region_error(img, node.bounds, double(w) * h)).epsilon(1e-9));
+        // Completion is judged on the pixels inside the quadrant: their mean error at the whole
+        // region's scale (the margin belongs to the neighbour's tree). A leaf wholly in the
+        // margin is complete.
+        int straddling = 0, margin_only = 0;
+        for (const auto &node : t.nodes()) {
+            const FloatRect b = node.bounds;
+            const FloatRect own{std::max(b.x0, double(quad.x0)), std::max(b.y0, double(quad.y0)),
+                                std::min(b.x1, double(quad.x1)), std::min(b.y1, double(quad.y1))};
+            const bool any_own = own.x1 > own.x0 && own.y1 > own.y0;
+            double expect = 0;
+            if (any_own)
+                expect = integral(img, own, double(w) * h) / area(own) *
+                         std::sqrt(area(b) / (double(w) * h));
+            CHECK(node.own_error == doctest::Approx(expect).epsilon(1e-9));
+            if (node.is_leaf()) {
+                CHECK(node.complete == (node.own_error < p.target));
+                margin_only += !any_own;
+                straddling += any_own && area(own) < area(b);
+            }
+        }
+        if (!whole) {
+            CHECK(straddling > 0);
+            MESSAGE(straddling << " leaves straddle the quadrant's edge, " << margin_only
+                               << " lie in its margin");
+        }
         // Inner nodes are complete exactly when both children are.
         for (const auto &node : t.nodes())
             if (!node.is_leaf())
@@ -282,14 +307,24 @@ TEST_CASE("an unknown pixel keeps its region open and unsplit") {
     CHECK(!t.complete());
     CHECK(t.pixel_active(0, 0));
     CHECK(t.pixel_active(63, 63));
-    // NaN counts as unknown too; so does an unknown pixel in the grown margin only.
+    // NaN counts as unknown too.
     at(img, 40, 20) = std::numeric_limits<float>::quiet_NaN();
     CHECK(t.rebuild(img, p) == 1);
+    // An unknown pixel in the grown margin only does not hold the quadrant open: the
+    // neighbour that owns it samples it. Its regions report an unknown error, their own part
+    // a known one.
     ErrorImage img2 = make_image(w, h, 0.f);
     at(img2, 35, 10) = kInfF;
     RegionTree q({0, 0, 32, 32}, {0, 0, 40, 40}, double(w) * h);
     CHECK(q.rebuild(img2, p) == 1);
+    CHECK(q.complete());
+    CHECK(q.root_error() == std::numeric_limits<double>::infinity());
+    CHECK(q.nodes()[0].own_error == 0.0);
+    // One inside it does.
+    at(img2, 31, 10) = kInfF;
+    CHECK(q.rebuild(img2, p) == 1);
     CHECK(!q.complete());
+    CHECK(q.pixel_active(0, 0));
 }
 
 TEST_CASE("active_rects and pixel_active agree with the leaves") {
@@ -486,8 +521,17 @@ TEST_CASE("rebuild_cells equals rebuild on an error image constant inside its 8x
             CHECK(a.nodes().size() > 3);
         check_same_tree(a, b);
         check_partition(b);
+        // Built from cell sums, a tree samples whole cells: a pixel is active exactly when
+        // some pixel of its cell (here all inside the quadrant) is active per pixel.
         for (int y = quad.y0; y < quad.y1; ++y)
-            for (int x = quad.x0; x < quad.x1; ++x) CHECK(a.pixel_active(x, y) == b.pixel_active(x, y));
+            for (int x = quad.x0; x < quad.x1; ++x) {
+                const int cx = grown.x0 + (x - grown.x0) / 8 * 8, cy = grown.y0 + (y - grown.y0) / 8 * 8;
+                bool any = false;
+                for (int yy = cy; yy < std::min(cy + 8, quad.y1); ++yy)
+                    for (int xx = cx; xx < std::min(cx + 8, quad.x1); ++xx)
+                        any = any || a.pixel_active(xx, yy);
+                CHECK(b.pixel_active(x, y) == any);
+            }
     }
 }
 

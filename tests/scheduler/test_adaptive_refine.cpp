@@ -109,10 +109,13 @@ TEST_CASE("refine: an spp budget does not stop at the first convergence; the tar
         CHECK(st.samples > ps.samples);
         CHECK(st.passes > ps.passes);
         CHECK(st.error_estimate < ps.error_estimate);
-        // Still adaptive: the hard region ends with many more samples than the easy rest.
+        // Still adaptive: the hard region (ten times the noise) reaches the spp cap, and the
+        // easy rest, which takes the budget left once it has, ends well below it (the share it
+        // gets depends on how far the passes outlast the cap: 110-290 spp seen barrier-free).
         auto [in, out] = spp_in_out(film);
         MESSAGE("hard " << in << " spp, easy " << out << " spp");
-        CHECK(in > 3 * out);
+        CHECK(in > 0.95 * o.max_spp);
+        CHECK(out < 0.75 * o.max_spp);
     }
 }
 
@@ -245,4 +248,42 @@ TEST_CASE("refine: the floor samples completed regions, the cap bounds the hard 
     // With the cap no pixel exceeds 4x the mean (the final mean bounds every earlier one).
     CHECK(double(cap.max) <= 4 * cap.mean);
     CHECK(cap.max < 1024);
+}
+
+TEST_CASE("a quadrant whose only open leaves lie in its margin is complete (the render converges)") {
+    // Each quadrant's tree covers its tiles plus a one-tile margin of its neighbours' tiles,
+    // and the neighbour decides, with its own cuts, when those tiles stop. Found by a sweep:
+    // with these hard rectangles next to a quadrant boundary, a neighbour's tree cut so that
+    // one of its leaves lay wholly in the margin and stayed open after its owner had stopped
+    // sampling there, so the quadrant never closed, every tile was skipped, and the render ran
+    // out its passes unconverged with no pixel near max_spp (deterministic mode: every time;
+    // barrier-free: about one render in twelve over a similar sweep).
+    struct Case {
+        int x0, y0;
+        float hard;
+    };
+    const Case cases[] = {{18, 15, 0.3f}, {18, 21, 0.3f}, {27, 18, 0.1f},
+                          {30, 15, 0.1f}, {30, 15, 0.2f}, {30, 18, 0.1f}};
+    for (bool det : {true, false})
+        for (const Case &c : cases)
+            for (int rep = 0; rep < (det ? 1 : 8); ++rep) {
+                CAPTURE(det);
+                CAPTURE(c.x0);
+                CAPTURE(c.y0);
+                CAPTURE(c.hard);
+                TwoNoiseSource src(kW, kH, sampling::PixelBounds{c.x0, c.y0, c.x0 + 16, c.y0 + 16},
+                                   c.hard, 0.03f);
+                sampling::Film film(kW, kH);
+                AdaptiveOptions o = options(2, false);
+                o.deterministic = det;
+                o.seed = 1;
+                const AdaptiveStats st = AdaptiveScheduler(src, film, o).render();
+                uint32_t most = 0;
+                for (uint32_t y = 0; y < kH; ++y)
+                    for (uint32_t x = 0; x < kW; ++x)
+                        most = std::max(most, film.sample_count(x, y));
+                CHECK(st.converged);
+                if (det)  // barrier-free, a tile may take one more pass on a stale tree
+                    CHECK(most < o.max_spp);
+            }
 }
