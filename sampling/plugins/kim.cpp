@@ -121,6 +121,7 @@
 #include <cmath>
 #include <cstdint>
 #include <memory>
+#include <mutex>
 #include <span>
 #include <stdexcept>
 #include <string>
@@ -426,11 +427,14 @@ class KimSampler final : public PixelSampler {
             block_seed_[b].store(0, std::memory_order_relaxed);
         if (line_flags_size_ < std::max(lw_, lh_)) {
             line_flags_size_ = std::max(lw_, lh_);
-            line_flags_ = std::make_unique<std::atomic<uint8_t>[]>(line_flags_size_);
+            line_flags_ = std::make_unique<std::atomic<uint32_t>[]>(line_flags_size_);
         }
         for (uint32_t i = 0; i < line_flags_size_; ++i)
-            line_flags_[i].store(0, std::memory_order_relaxed);
+            line_flags_[i].store(kNoCrossing, std::memory_order_relaxed);
         th_.pos = t_pos_ * scene_size_;
+        box_lo_ = Vec3f(kInfinity, kInfinity, kInfinity);
+        box_hi_ = Vec3f(-kInfinity, -kInfinity, -kInfinity);
+        box_any_ = false;
     }
 
     /// The ray-attribute vector of the primary hit (OID, POS, NORM, SHDBIT, GCOL; all read by
@@ -465,7 +469,7 @@ class KimSampler final : public PixelSampler {
     void end_stage(int stage, const SampleSource &source) override {
         const StageDesc &st = stages_[size_t(stage)];
         if (st.kind == StageDesc::Kind::Base && scene_size_ <= 0.f)
-            measure_scene();
+            th_.pos = box_any_ ? t_pos_ * max_component(box_hi_ - box_lo_) : 0.f;
         if (st.kind == StageDesc::Kind::Scan)
             continue_scans(st, source);
     }
@@ -560,32 +564,31 @@ class KimSampler final : public PixelSampler {
         for (uint32_t y = first_at(y0, block_, 0); y < y1; y += block_)
             for (uint32_t x = first_at(x0, block_, 0); x < x1; x += block_)
                 coords.push_back({x, y});
+        // T_pos is relative to the scene normalised to a unit longest side (Fig. 5): the
+        // longest side of the bounding box of the B pixels' hit points, gathered here while
+        // they are in cache (min and max do not depend on the order of the tiles) and read by
+        // end_stage.
+        Vec3f lo(kInfinity, kInfinity, kInfinity), hi(-kInfinity, -kInfinity, -kInfinity);
+        bool any = false;
         trace(coords, source, [&](size_t k, const Sample &s) {
             const size_t i = at(coords[k].x, coords[k].y);
             pts_[i] = Point{};  // class 0 (B), no check
             store_traced(i, s, source);
             pts_[i].state = kBase;
-        });
-    }
-
-    /// T_pos is relative to the scene normalised to a unit longest side (Fig. 5): the longest
-    /// side of the bounding box of the B pixels' hit points.
-    void measure_scene() {
-        Vec3f lo(kInfinity, kInfinity, kInfinity), hi(-kInfinity, -kInfinity, -kInfinity);
-        bool any = false;
-        for (uint32_t y = 0; y < lh_; y += block_)
-            for (uint32_t x = 0; x < lw_; x += block_) {
-                const size_t i = at(x, y);
-                const Attr &a = attr_[i];
-                if (pts_[i].state != kBase || !a.valid || a.oid < 0)
-                    continue;
-                if (!std::isfinite(a.pos.x) || !std::isfinite(a.pos.y) || !std::isfinite(a.pos.z))
-                    continue;
+            const Attr &a = attr_[i];
+            if (a.valid && a.oid >= 0 && std::isfinite(a.pos.x) && std::isfinite(a.pos.y) &&
+                std::isfinite(a.pos.z)) {
                 lo = vmin(lo, a.pos);
                 hi = vmax(hi, a.pos);
                 any = true;
             }
-        th_.pos = any ? t_pos_ * max_component(hi - lo) : 0.f;
+        });
+        if (any && scene_size_ <= 0.f) {
+            std::lock_guard<std::mutex> lock(box_mutex_);
+            box_lo_ = vmin(box_lo_, lo);
+            box_hi_ = vmax(box_hi_, hi);
+            box_any_ = true;
+        }
     }
 
     // ---- Stages II and III: adaptive pixels ---------------------------------------------
@@ -766,22 +769,32 @@ class KimSampler final : public PixelSampler {
         if ((st.step > 0 && exit + 1 >= limit) || (st.step < 0 && exit == 0))
             return;
         const uint32_t next = st.step > 0 ? exit + 1 : exit - 1;
+        // The serial walk starts at the line's earliest crossing (its step number k, see
+        // continue_scans): before it no candidate is left.
+        const uint32_t k_next = st.step > 0 ? next : limit - 1 - next;
         for (uint32_t l = l0; l < l1; ++l)
-            if (candidate(point(next, l), point(exit, l)))
-                line_flags_[l].store(1, std::memory_order_relaxed);
+            if (candidate(point(next, l), point(exit, l))) {
+                uint32_t k = line_flags_[l].load(std::memory_order_relaxed);
+                while (k_next < k && !line_flags_[l].compare_exchange_weak(
+                                         k, k_next, std::memory_order_relaxed)) {
+                }
+            }
     }
 
-    /// Serial: re-runs the scan over every flagged line, which continues the chains that
-    /// crossed tile borders (everything inside the tiles is already done, so only those
-    /// continuations trace). Same result as one serial scan per line.
+    /// Serial: re-runs the scan over every flagged line from its earliest crossing on, which
+    /// continues the chains that crossed tile borders (everything inside the tiles is already
+    /// done, so only those continuations trace). Same result as one serial scan per line: up to
+    /// the first crossing, every candidate was a tile's own and has been traced (a candidate
+    /// whose predecessor lies in the previous tile is exactly a crossing).
     void continue_scans(const StageDesc &st, const SampleSource &source) {
         const uint32_t lines = st.horizontal ? lh_ : lw_, len = st.horizontal ? lw_ : lh_;
         Sample s;
         for (uint32_t l = 0; l < lines; ++l) {
-            if (!line_flags_[l].load(std::memory_order_relaxed))
+            const uint32_t k_first = line_flags_[l].load(std::memory_order_relaxed);
+            if (k_first == kNoCrossing)
                 continue;
-            line_flags_[l].store(0, std::memory_order_relaxed);
-            for (uint32_t k = 1; k < len; ++k) {
+            line_flags_[l].store(kNoCrossing, std::memory_order_relaxed);
+            for (uint32_t k = std::max(k_first, 1u); k < len; ++k) {
                 const uint32_t cur = st.step > 0 ? k : len - 1 - k;
                 const uint32_t prev = st.step > 0 ? cur - 1 : cur + 1;
                 const uint32_t x = st.horizontal ? cur : l, y = st.horizontal ? l : cur;
@@ -864,9 +877,15 @@ class KimSampler final : public PixelSampler {
     // Frame totals, summed per tile by the resolve stage.
     std::atomic<uint64_t> traced_total_{0}, shaded_total_{0}, nan_total_{0}, rays_total_{0};
     FrameShadowRays shadow_;
+    // Bounding box of the B pixels' hit points this frame (scene-size = 0), merged per tile.
+    std::mutex box_mutex_;
+    Vec3f box_lo_, box_hi_;
+    bool box_any_ = false;
 
     // Post-correction: lines (rows or columns) whose chains cross a tile border.
-    std::unique_ptr<std::atomic<uint8_t>[]> line_flags_;
+    // Per line: the step number k (continue_scans) of its earliest crossing, kNoCrossing if none.
+    static constexpr uint32_t kNoCrossing = ~0u;
+    std::unique_ptr<std::atomic<uint32_t>[]> line_flags_;
     uint32_t line_flags_size_ = 0;
     // Per block of at(): 1 when it holds a seed (kTracedA or kCorrected) this frame, so that a
     // scan skips the tiles without one without reading their points.
