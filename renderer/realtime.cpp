@@ -76,6 +76,9 @@ void run_frames(const RenderOptions &opt, Scene &scene, const SamplerSpec &sampl
     sched::FrameTiming timing;
     uint32_t done = 0;
     uint64_t shadow_rays = 0, shadow_rays_avoided = 0;  // over all frames
+    // Per stage, the times of the frames without diagnostics (all but the last one; the last
+    // one alone when there is only one): the profile of the frames that frame_ms_median sums.
+    std::vector<std::vector<double>> stage_ms;
     for (uint32_t k = 0; k < frames; ++k) {
         if (cancel && cancel->load()) break;
         if (opt.orbit_deg != 0)
@@ -86,6 +89,11 @@ void run_frames(const RenderOptions &opt, Scene &scene, const SamplerSpec &sampl
         timing = scheduler.render(*plugin, *source, result, cancel);
         if (timing.cancelled) break;
         rep.frame_ms.push_back(timing.total_ms);
+        if (k + 1 < frames || stage_ms.empty()) {
+            stage_ms.resize(timing.stage_ms.size());
+            for (size_t i = 0; i < timing.stage_ms.size() && i < stage_ms.size(); ++i)
+                stage_ms[i].push_back(timing.stage_ms[i]);
+        }
         shadow_rays += result.shadow_rays;
         shadow_rays_avoided += result.shadow_rays_avoided;
         ++done;
@@ -176,6 +184,10 @@ void run_frames(const RenderOptions &opt, Scene &scene, const SamplerSpec &sampl
         for (size_t i = 0; i < timing.stage_ms.size(); ++i)
             stages.push_back({{"name", timing.stage_names[i]}, {"ms", timing.stage_ms[i]}});
         j["stages_last_frame"] = stages;
+        nlohmann::json medians = nlohmann::json::array();
+        for (size_t i = 0; i < stage_ms.size() && i < timing.stage_names.size(); ++i)
+            medians.push_back({{"name", timing.stage_names[i]}, {"ms", percentile(stage_ms[i], 0.5)}});
+        j["stages_ms_median"] = medians;
         std::vector<std::string> layer_names;
         for (const auto &l : result.diagnostics) layer_names.push_back(l.name);
         j["diagnostic_layers"] = layer_names;

@@ -20,7 +20,8 @@ Transform orbit_world_from_camera(const Transform &world_from_camera, Vec3f cent
 /// `opt.integrator` (default whitted), orbiting the camera by opt.orbit_deg over the frames
 /// (frame k at k * orbit / frames). Writes `exr` (beauty "R,G,B" + "rays" + one layer per
 /// diagnostic), `png` (when `display`), and opt.stats_path (frame_ms_median, frame_ms_p95,
-/// rays_per_pixel, active_fraction, ...). `cancel` stops between frames and tiles. Fills `rep`.
+/// rays_per_pixel, active_fraction, stages_ms_median: each stage's median over the frames without
+/// diagnostics, ...). `cancel` stops between frames and tiles. Fills `rep`.
 void run_frames(const RenderOptions &opt, Scene &scene, const SamplerSpec &sampler,
                 const std::string &exr, const std::string &png, const DisplayTransform *display,
                 const std::atomic<bool> *cancel, RenderReport &rep);

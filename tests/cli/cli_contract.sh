@@ -376,6 +376,10 @@ assert s["integrator"] == "whitted", s["integrator"]
 assert s["rays_per_pixel"] >= 1, s["rays_per_pixel"]
 assert 0 <= s["active_fraction"] <= 1, s["active_fraction"]
 assert "active_subpixels" in s["diagnostic_layers"], s["diagnostic_layers"]
+# Per-stage medians over the frames without diagnostics, one per stage of the last frame.
+names = [st["name"] for st in s["stages_last_frame"]]
+assert [st["name"] for st in s["stages_ms_median"]] == names and names, s["stages_ms_median"]
+assert all(math.isfinite(st["ms"]) and st["ms"] >= 0 for st in s["stages_ms_median"])
 PY
     ;;
 converge_good)
