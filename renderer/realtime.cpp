@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <map>
 #include <nlohmann/json.hpp>
 
 #include "renderer/image_io.h"
@@ -76,9 +77,11 @@ void run_frames(const RenderOptions &opt, Scene &scene, const SamplerSpec &sampl
     sched::FrameTiming timing;
     uint32_t done = 0;
     uint64_t shadow_rays = 0, shadow_rays_avoided = 0;  // over all frames
-    // Per stage, the times of the frames without diagnostics (all but the last one; the last
-    // one alone when there is only one): the profile of the frames that frame_ms_median sums.
-    std::vector<std::vector<double>> stage_ms;
+    // Per stage name, the times of the frames without diagnostics (all but the last one; the
+    // last one alone when there is only one): the profile of the frames that frame_ms_median
+    // sums. By name: a plugin may run other stages in its first frame (fliptri's
+    // prev_threshold).
+    std::map<std::string, std::vector<double>> stage_ms;
     for (uint32_t k = 0; k < frames; ++k) {
         if (cancel && cancel->load()) break;
         if (opt.orbit_deg != 0)
@@ -89,11 +92,9 @@ void run_frames(const RenderOptions &opt, Scene &scene, const SamplerSpec &sampl
         timing = scheduler.render(*plugin, *source, result, cancel);
         if (timing.cancelled) break;
         rep.frame_ms.push_back(timing.total_ms);
-        if (k + 1 < frames || stage_ms.empty()) {
-            stage_ms.resize(timing.stage_ms.size());
-            for (size_t i = 0; i < timing.stage_ms.size() && i < stage_ms.size(); ++i)
-                stage_ms[i].push_back(timing.stage_ms[i]);
-        }
+        if (k + 1 < frames || stage_ms.empty())
+            for (size_t i = 0; i < timing.stage_ms.size(); ++i)
+                stage_ms[timing.stage_names[i]].push_back(timing.stage_ms[i]);
         shadow_rays += result.shadow_rays;
         shadow_rays_avoided += result.shadow_rays_avoided;
         ++done;
@@ -185,8 +186,11 @@ void run_frames(const RenderOptions &opt, Scene &scene, const SamplerSpec &sampl
             stages.push_back({{"name", timing.stage_names[i]}, {"ms", timing.stage_ms[i]}});
         j["stages_last_frame"] = stages;
         nlohmann::json medians = nlohmann::json::array();
-        for (size_t i = 0; i < stage_ms.size() && i < timing.stage_names.size(); ++i)
-            medians.push_back({{"name", timing.stage_names[i]}, {"ms", percentile(stage_ms[i], 0.5)}});
+        for (const std::string &name : timing.stage_names) {
+            const auto it = stage_ms.find(name);
+            if (it != stage_ms.end())
+                medians.push_back({{"name", name}, {"ms", percentile(it->second, 0.5)}});
+        }
         j["stages_ms_median"] = medians;
         std::vector<std::string> layer_names;
         for (const auto &l : result.diagnostics) layer_names.push_back(l.name);

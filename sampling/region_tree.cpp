@@ -329,22 +329,17 @@ void RegionTree::build(int n, int depth) {
                         std::min(b.x1, double(quadrant_.x1)), std::min(b.y1, double(quadrant_.y1))};
     const bool any_own = own.x1 > own.x0 && own.y1 > own.y0;
     Node &node = nodes_[size_t(n)];
-    if (has_unknown(b)) {
-        // Too few samples somewhere: the estimate is meaningless. Keep the region open whole
-        // when that is in its own part (a region wholly in the margin is complete).
-        node.error = kInf;
-        node.own_error = any_own && has_unknown(own) ? kInf : 0.0;
-        if (node.own_error == kInf || !any_own) {
-            node.complete = !any_own;
-            return;
-        }
+    if (any_own && has_unknown(own)) {
+        // Too few samples here: the estimate is meaningless, keep the region open whole.
+        node.error = node.own_error = kInf;
+        node.complete = false;
+        return;
     }
     const double sum = integral(b);
     // e_b = (r / N) * sum e_p with r = sqrt(A_b / A_image) and N = A_b, i.e.
     // sum / sqrt(A_b * A_image) (Dammertz et al. 2010, eq. 3).
     const double e = a > 0 ? sum / std::sqrt(a * image_area_) : 0.0;
-    if (node.error != kInf)
-        node.error = e;
+    node.error = has_unknown(b) ? kInf : e;  // unknown only in the margin: judged without it
     const double a_own = any_own ? area(own) : 0.0;
     // The own part's mean error at the whole region's scale r: a region straddling the seam
     // is held to the same standard as one inside the quadrant, only over the pixels that
@@ -352,7 +347,7 @@ void RegionTree::build(int n, int depth) {
     node.own_error = !any_own    ? 0.0
                      : a_own == a ? e
                                   : integral(own) / a_own * std::sqrt(a / image_area_);
-    if (node.own_error < params_.target) {
+    if (!any_own || node.own_error < params_.target) {
         node.complete = true;
         return;
     }
