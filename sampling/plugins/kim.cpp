@@ -568,6 +568,7 @@ class KimSampler final : public PixelSampler {
         // longest side of the bounding box of the B pixels' hit points, gathered here while
         // they are in cache (min and max do not depend on the order of the tiles) and read by
         // end_stage.
+        const bool measure = scene_size_ <= 0.f;
         Vec3f lo(kInfinity, kInfinity, kInfinity), hi(-kInfinity, -kInfinity, -kInfinity);
         bool any = false;
         trace(coords, source, [&](size_t k, const Sample &s) {
@@ -576,14 +577,14 @@ class KimSampler final : public PixelSampler {
             store_traced(i, s, source);
             pts_[i].state = kBase;
             const Attr &a = attr_[i];
-            if (a.valid && a.oid >= 0 && std::isfinite(a.pos.x) && std::isfinite(a.pos.y) &&
-                std::isfinite(a.pos.z)) {
+            if (measure && a.valid && a.oid >= 0 && std::isfinite(a.pos.x) &&
+                std::isfinite(a.pos.y) && std::isfinite(a.pos.z)) {
                 lo = vmin(lo, a.pos);
                 hi = vmax(hi, a.pos);
                 any = true;
             }
         });
-        if (any && scene_size_ <= 0.f) {
+        if (any) {
             std::lock_guard<std::mutex> lock(box_mutex_);
             box_lo_ = vmin(box_lo_, lo);
             box_hi_ = vmax(box_hi_, hi);
