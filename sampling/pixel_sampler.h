@@ -34,6 +34,10 @@ namespace tessera::sampling {
 /// Half-open pixel rectangle [x0, x1) x [y0, y1) (one tile).
 struct PixelRect {
     uint32_t x0 = 0, y0 = 0, x1 = 0, y1 = 0;
+    /// The tile's place in the stage's work list (FrameScheduler: Morton order; tiles next to
+    /// each other in it run at the same time on different threads) and the list's length. A
+    /// stage whose work is not naturally per tile (a row-major copy) can split it by these.
+    uint32_t index = 0, count = 1;
     uint32_t width() const { return x1 - x0; }
     uint32_t height() const { return y1 - y0; }
 };

@@ -110,7 +110,8 @@ FrameTiming FrameScheduler::render(sampling::PixelSampler &sampler, const Sample
                 uint32_t i = next.fetch_add(1, std::memory_order_relaxed);
                 if (i >= n) return;
                 const Tile &t = tiles_[i];
-                sampler.run_tile(stage, sampling::PixelRect{t.x0, t.y0, t.x1, t.y1}, source);
+                sampler.run_tile(stage, sampling::PixelRect{t.x0, t.y0, t.x1, t.y1, i, n},
+                                 source);
             }
         };
         if (workers == 1)

@@ -98,14 +98,18 @@
 //  - Sec. 5 traces a pixel in full when any check fails (no partial re-use, e.g. of geometry
 //    with fresh shadow rays): kept, since SampleSource has no "shadow rays only" call anyway.
 //
-// CPU layout: per lattice point a 60-byte attribute vector and a 32-byte record (colour, rays,
-// OID and SHDBIT, state, diagnostics), stored in blocks of 8 x 8 pixels (the default tile) so
-// that a tile's points are contiguous: 92 bytes x ss^2 per pixel (92 MB at 1024^2, 1.4 GB at
-// ss=4), on huge pages where the kernel offers them (sampling/large_buffer.h: every stage walks
-// all of it). The last column pass does not store the vectors of the points it interpolates
-// (no later pass reads them; post-correction compares the record's OID and SHDBIT).
+// CPU layout: per lattice point a 60-byte attribute vector and a 16-byte record (OID and
+// SHDBIT, state, diagnostics), stored in blocks of 8 x 8 pixels (the default tile) so that a
+// tile's points are contiguous, plus its colour and rays (16 bytes) in row-major arrays: 92
+// bytes x ss^2 per pixel (92 MB at 1024^2, 1.4 GB at ss=4), on huge pages where the kernel
+// offers them (sampling/large_buffer.h: every stage walks all of it). The last column pass does
+// not store the vectors of the points it interpolates (no later pass reads them;
+// post-correction compares the record's OID and SHDBIT). For ss = 1 the colour and rays arrays
+// are the frame's output itself, and the frame totals are added per stage tile, so the resolve
+// stage runs only on frames that write the diagnostic layers (before, it streamed a 32-byte
+// record per pixel every frame: 17 ms of a 158 ms frame at 1024^2 on the Bitterli box).
 // Nothing is allocated per sample; buffers persist across frames. The FrameScheduler's workers
-// persist too; the default frame has 8 stages (base, a1, a2, four scans, resolve).
+// persist too; the default frame has 7 stages (base, a1, a2, four scans), 8 with the resolve.
 //
 // Diagnostics (FrameResult layers, one value per pixel; with ss > 1, over the pixel's samples):
 //  "traced"        1 traced, 0 interpolated (ss > 1: fraction of the samples traced)
@@ -181,13 +185,12 @@ struct Attr {
     float z = 0;
 };
 
-/// Everything of a lattice point but its attribute vector (32 bytes: the resolve and the
-/// post-correction scans read one stream). `oid` and `shadow` repeat the attribute vector's
-/// OID and SHDBIT, which is all post-correction compares: so the vector of a point that is
-/// never a reference need not be stored (see adaptive_tile).
+/// Everything of a lattice point but its attribute vector, colour and rays (16 bytes: the
+/// post-correction scans read this one stream, the resolve only on diagnostic frames). `oid`
+/// and `shadow` repeat the attribute vector's OID and SHDBIT, which is all post-correction
+/// compares: so the vector of a point that is never a reference need not be stored (see
+/// adaptive_tile). Colour and rays: KimSampler::col_, ray_.
 struct Point {
-    Rgb color;
-    uint32_t rays = 0;       ///< rays traced for the point this frame
     int32_t oid = -1;        ///< Attr::oid
     uint32_t shadow = 0;     ///< Attr::shadow
     uint8_t state = kUnset;  ///< PointState
@@ -195,9 +198,16 @@ struct Point {
     uint8_t check = 0;       ///< CheckCode of an adaptive point
     uint8_t pc = 0;          ///< post-correction: 0 none, 1 re-traced, 2 corrected
     uint8_t shaded = 0;      ///< 1: shaded from an interpolated vector (SampleSource::shade)
-    uint8_t nan = 0;         ///< 1: its colour is not finite (dropped at resolve)
+    uint8_t nan = 0;         ///< 1: its colour is not finite (stored as 0, dropped by the resolve)
 };
-static_assert(sizeof(Point) == 32);
+static_assert(sizeof(Point) == 16);
+
+/// A stage tile's contribution to the frame totals, added once per tile (integer sums: the
+/// totals do not depend on the order in which tiles finish).
+struct Counts {
+    uint64_t traced = 0, shaded = 0, rays = 0;
+    int64_t nan = 0;  ///< a post-correction ray can turn a non-finite point finite: -1
+};
 
 /// The OID and SHDBIT of a point before post-correction traced it.
 struct Ident {
@@ -396,16 +406,18 @@ class KimSampler final : public PixelSampler {
         const uint32_t blocks_y = (lh_ + block_mask_) >> block_shift_;
         const size_t n = size_t(blocks_x_) * blocks_y << (2 * block_shift_);
         // Nothing is cleared per frame: every stage writes all fields of the points it
-        // computes, and a stage reads only points of earlier stages. A cancelled frame runs no
-        // tile of any later stage (scheduler/frame_scheduler.h), so the resolve never sees a
-        // point left from the previous frame. The per-pixel outputs are zero at the start of the
-        // first frame; after that they hold the frame before last (end_frame swaps them with
-        // the FrameResult's, unzeroed), which the resolve overwrites everywhere. A cancelled
-        // frame may therefore keep old pixels where its resolve did not run; the real-time
-        // loop discards cancelled frames.
+        // computes (the colour and rays included: every lattice point is a B or an A point),
+        // and a stage reads only points of earlier stages. A cancelled frame runs no tile of any
+        // later stage (scheduler/frame_scheduler.h), so no stage sees a point left from the
+        // previous frame. The per-pixel outputs are zero at the start of the first frame; after
+        // that they hold the frame before last (end_frame swaps them with the FrameResult's,
+        // unzeroed), which the stages (ss = 1) or the resolve overwrite everywhere. A cancelled
+        // frame may therefore keep old pixels; the real-time loop discards cancelled frames.
         if (attr_.size() != n) {
             attr_.assign(n, Attr{});
             pts_.assign(n, Point{});
+            col_.assign(n, Rgb(0.f));
+            ray_.assign(n, 0.f);
         }
         const size_t np = size_t(width_) * height_;
         for (std::vector<float> *v : {&pix_rays_, &pix_traced_, &pix_class_, &pix_check_, &pix_pc_})
@@ -491,7 +503,7 @@ class KimSampler final : public PixelSampler {
         const uint64_t traced = traced_total_.load(std::memory_order_relaxed);
         r.samples = traced;
         r.shaded = shaded_total_.load(std::memory_order_relaxed);
-        r.nan_samples = nan_total_.load(std::memory_order_relaxed);
+        r.nan_samples = uint64_t(std::max<int64_t>(0, nan_total_.load(std::memory_order_relaxed)));
         r.rays_total = rays_total_.load(std::memory_order_relaxed);
         shadow_.write(r);
         const double points = double(lw_) * double(lh_);
@@ -504,6 +516,13 @@ class KimSampler final : public PixelSampler {
         const size_t blk = size_t(y >> block_shift_) * blocks_x_ + (x >> block_shift_);
         return (blk << (2 * block_shift_)) | (size_t(y & block_mask_) << block_shift_) |
                (x & block_mask_);
+    }
+
+    void add_counts(const Counts &c) {
+        traced_total_.fetch_add(c.traced, std::memory_order_relaxed);
+        shaded_total_.fetch_add(c.shaded, std::memory_order_relaxed);
+        rays_total_.fetch_add(c.rays, std::memory_order_relaxed);
+        nan_total_.fetch_add(c.nan, std::memory_order_relaxed);
     }
 
     CameraSample camera_sample(uint32_t x, uint32_t y) const {
@@ -542,19 +561,26 @@ class KimSampler final : public PixelSampler {
         shadow_.add(tally);
     }
 
-    /// Stores a traced sample into point i (attributes, colour, rays; a post-correction ray
-    /// adds to the rays of the point's interpolation, which are 0).
-    void store_traced(size_t i, const Sample &s, const SampleSource &source) {
+    /// Stores a traced sample into point i (an index from at()): attributes,
+    /// colour (0 when not finite, flagged), rays (a post-correction ray adds to the rays of the
+    /// point's interpolation, which are 0: `add_rays`), and counts it as traced.
+    void store_traced(size_t i, const Sample &s,
+                      const SampleSource &source, bool add_rays, Counts &counts) {
         attr_[i] = attr_from(s);
         if (attr_[i].valid && attr_[i].oid >= 0) {
             const float z = source.view_depth(attr_[i].pos);
             attr_[i].z = z > 0.f && std::isfinite(z) ? z : 0.f;
         }
-        pts_[i].color = s.radiance;
-        pts_[i].oid = attr_[i].oid;
-        pts_[i].shadow = attr_[i].shadow;
-        pts_[i].rays += s.rays;
-        pts_[i].nan = s.radiance.is_finite() ? 0 : 1;
+        const bool finite = s.radiance.is_finite();
+        col_[i] = finite ? s.radiance : Rgb(0.f);
+        ray_[i] = add_rays ? ray_[i] + float(s.rays) : float(s.rays);
+        Point &pt = pts_[i];
+        counts.nan += int64_t(finite ? 0 : 1) - int64_t(add_rays ? pt.nan : 0);
+        pt.oid = attr_[i].oid;
+        pt.shadow = attr_[i].shadow;
+        pt.nan = finite ? 0 : 1;
+        counts.traced += 1;
+        counts.rays += s.rays;
     }
 
     // ---- Stage I: base pixels -----------------------------------------------------------
@@ -571,10 +597,11 @@ class KimSampler final : public PixelSampler {
         const bool measure = scene_size_ <= 0.f;
         Vec3f lo(kInfinity, kInfinity, kInfinity), hi(-kInfinity, -kInfinity, -kInfinity);
         bool any = false;
+        Counts counts;
         trace(coords, source, [&](size_t k, const Sample &s) {
             const size_t i = at(coords[k].x, coords[k].y);
             pts_[i] = Point{};  // class 0 (B), no check
-            store_traced(i, s, source);
+            store_traced(i, s, source, false, counts);
             pts_[i].state = kBase;
             const Attr &a = attr_[i];
             if (measure && a.valid && a.oid >= 0 && std::isfinite(a.pos.x) &&
@@ -584,6 +611,7 @@ class KimSampler final : public PixelSampler {
                 any = true;
             }
         });
+        add_counts(counts);
         if (any) {
             std::lock_guard<std::mutex> lock(box_mutex_);
             box_lo_ = vmin(box_lo_, lo);
@@ -626,6 +654,7 @@ class KimSampler final : public PixelSampler {
         prefetch_blocks(x0, y0, x1, y1);
         std::vector<Coord> &coords = scratch().coords;
         coords.clear();
+        Counts counts;
         // Rows (A1): y = 0 (mod 2s), x = s (mod 2s). Columns (A2): y = s (mod 2s), x = 0 (mod s).
         const uint32_t ystart = first_at(y0, period, rows ? 0 : s);
         const uint32_t xstep = rows ? period : s;
@@ -656,23 +685,29 @@ class KimSampler final : public PixelSampler {
                     attr_[i] = r;
                 pt.oid = r.oid;
                 pt.shadow = r.shadow;
+                Rgb color;
                 if (a.oid >= 0) {
-                    pt.color = source.shade(hit_from(r));
+                    color = source.shade(hit_from(r));
                     pt.shaded = 1;
+                    ++counts.shaded;
                 } else {  // both escaped: no surface to shade
-                    const Rgb ca_color = pts_[ia].color, cb_color = pts_[ib].color;
-                    pt.color = clamp_zero(ca_color + (cb_color - ca_color) * t);
+                    color = clamp_zero(col_[ia] + (col_[ib] - col_[ia]) * t);
                 }
-                pt.nan = pt.color.is_finite() ? 0 : 1;
+                const bool finite = color.is_finite();
+                pt.nan = finite ? 0 : 1;
+                counts.nan += pt.nan;
+                col_[i] = finite ? color : Rgb(0.f);
+                ray_[i] = 0.f;
                 pt.state = kInterpolated;
             }
         // Step-II-b/c: the failed points, packed, traced together.
         trace(coords, source, [&](size_t k, const Sample &smp) {
             const size_t i = at(coords[k].x, coords[k].y);
-            store_traced(i, smp, source);
+            store_traced(i, smp, source, false, counts);
             pts_[i].state = kTracedA;
             mark_seed(i);
         });
+        add_counts(counts);
     }
 
     // ---- Post-correction (Sec. 4, Sec. 5) -------------------------------------------------
@@ -684,10 +719,12 @@ class KimSampler final : public PixelSampler {
         return c.oid != p.oid || (pc_shadow_ && c.shadow != p.shadow);
     }
 
-    /// Stores the post-correction ray of point i whose interpolated OID and SHDBIT were `old`.
-    void apply_correction(size_t i, const Ident &old, const Sample &s,
-                          const SampleSource &source) {
-        store_traced(i, s, source);
+    /// Stores the post-correction ray of the point at (x, y) whose interpolated OID and SHDBIT
+    /// were `old`.
+    void apply_correction(uint32_t x, uint32_t y, const Ident &old, const Sample &s,
+                          const SampleSource &source, Counts &counts) {
+        const size_t i = at(x, y);
+        store_traced(i, s, source, true, counts);
         const Point &now = pts_[i];
         const bool changed = now.oid != old.oid || (pc_shadow_ && now.shadow != old.shadow);
         pts_[i].state = changed ? kCorrected : kRetraced;
@@ -708,10 +745,16 @@ class KimSampler final : public PixelSampler {
                 const size_t first = (size_t(by) * blocks_x_ + bx) * per_block;
                 const char *a = reinterpret_cast<const char *>(attr_.data() + first);
                 const char *p = reinterpret_cast<const char *>(pts_.data() + first);
+                const char *c = reinterpret_cast<const char *>(col_.data() + first);
+                const char *r = reinterpret_cast<const char *>(ray_.data() + first);
                 for (size_t off = 0; off < per_block * sizeof(Attr); off += 64)
                     __builtin_prefetch(a + off);
                 for (size_t off = 0; off < per_block * sizeof(Point); off += 64)
                     __builtin_prefetch(p + off);
+                for (size_t off = 0; off < per_block * sizeof(Rgb); off += 64)
+                    __builtin_prefetch(c + off, 1);
+                for (size_t off = 0; off < per_block * sizeof(float); off += 64)
+                    __builtin_prefetch(r + off, 1);
             }
     }
 
@@ -757,9 +800,11 @@ class KimSampler final : public PixelSampler {
             }
             if (sc.coords.empty())
                 continue;
+            Counts counts;
             trace(sc.coords, source, [&](size_t j, const Sample &s) {
-                apply_correction(at(sc.coords[j].x, sc.coords[j].y), sc.old[j], s, source);
+                apply_correction(sc.coords[j].x, sc.coords[j].y, sc.old[j], s, source, counts);
             });
+            add_counts(counts);
         }
         // A chain that reaches the segment's end continues in the next tile: flag the line for
         // end_stage. The neighbour read here is the first point of the next tile's segment in
@@ -805,55 +850,73 @@ class KimSampler final : public PixelSampler {
                 const Ident old{pts_[ic].oid, pts_[ic].shadow};
                 s = source.evaluate(camera_sample(x, y));
                 shadow_.add(std::span<const Sample>(&s, 1));
-                apply_correction(ic, old, s, source);
+                Counts counts;
+                apply_correction(x, y, old, s, source, counts);
+                add_counts(counts);
             }
         }
     }
 
     // ---- Resolve: box filter of the ss x ss samples of each pixel -----------------------
+    /// A tile's job is not its own pixels but its share of the row-major output by its place
+    /// in the work list (PixelRect::index of count): a run of consecutive pixels. A tile's own
+    /// pixels are 8 short rows whose cache lines the next tile in the list, resolved at the
+    /// same time on another thread, shares (96 bytes of colour and 32 of rays per tile row):
+    /// every tile border was false sharing. The reads (blocked layout) are shared only.
     void resolve_tile(const PixelRect &tile) {
+        const size_t np = size_t(width_) * height_, count = std::max<size_t>(1, tile.count);
+        const size_t begin = size_t(tile.index) * np / count;
+        const size_t end = (size_t(tile.index) + 1) * np / count;
         const float inv_n = 1.f / float(ss_ * ss_);
         const bool diag = diagnostics();
-        uint64_t traced = 0, shaded = 0, nan = 0, rays = 0;
-        for (uint32_t py = tile.y0; py < tile.y1; ++py)
-            for (uint32_t px = tile.x0; px < tile.x1; ++px) {
-                Rgb sum(0.f);
-                uint32_t good = 0, n_traced = 0, n_rays = 0, cls_sum = 0, check = 0, pc = 0;
+        uint32_t px = uint32_t(begin % width_), py = uint32_t(begin / width_);
+        if (ss_ == 1 && !diag) {  // a copy: a point's colour is already 0 when not finite
+            for (size_t o = begin; o < end;) {
+                const size_t run = std::min<size_t>(end - o, width_ - px);
+                for (size_t k = 0; k < run; ++k, ++o) {
+                    const size_t p = at(px + uint32_t(k), py);
+                    pix_color_[o] = col_[p];
+                    pix_rays_[o] = ray_[p];
+                }
+                px = 0;
+                ++py;
+            }
+            return;
+        }
+        for (size_t o = begin; o < end; ++o) {
+            Rgb sum(0.f);
+            float n_rays = 0.f;
+            uint32_t good = 0;
+            for (uint32_t j = 0; j < ss_; ++j)
+                for (uint32_t i = 0; i < ss_; ++i) {
+                    const size_t p = at(px * ss_ + i, py * ss_ + j);
+                    sum += col_[p];  // 0 when not finite
+                    n_rays += ray_[p];
+                    good += pts_[p].nan ? 0 : 1;
+                }
+            pix_color_[o] = good ? sum / float(good) : Rgb(0.f);
+            pix_rays_[o] = n_rays;
+            if (diag) {
+                uint32_t n_traced = 0, cls_sum = 0, check = 0, pc = 0;
                 for (uint32_t j = 0; j < ss_; ++j)
                     for (uint32_t i = 0; i < ss_; ++i) {
-                        const size_t p = at(px * ss_ + i, py * ss_ + j);
-                        const Point &m = pts_[p];
-                        if (m.nan) {
-                            ++nan;
-                        } else {
-                            sum += m.color;
-                            ++good;
-                        }
-                        n_rays += m.rays;
+                        const Point &m = pts_[at(px * ss_ + i, py * ss_ + j)];
                         n_traced += is_traced(m.state) ? 1 : 0;
-                        shaded += m.shaded;
                         cls_sum += m.cls;
                         if (m.check && (!check || m.check < check))
                             check = m.check;
                         pc = std::max<uint32_t>(pc, m.pc);
                     }
-                const size_t o = size_t(py) * width_ + px;
-                pix_color_[o] = good ? sum / float(good) : Rgb(0.f);
-                pix_rays_[o] = float(n_rays);
-                if (diag) {
-                    pix_traced_[o] = float(n_traced) * inv_n;
-                    pix_class_[o] = float(cls_sum) * inv_n;
-                    pix_check_[o] = float(check);
-                    pix_pc_[o] = float(pc);
-                }
-                traced += n_traced;
-                rays += n_rays;
+                pix_traced_[o] = float(n_traced) * inv_n;
+                pix_class_[o] = float(cls_sum) * inv_n;
+                pix_check_[o] = float(check);
+                pix_pc_[o] = float(pc);
             }
-        // Integer sums: the totals do not depend on the order in which tiles finish.
-        traced_total_.fetch_add(traced, std::memory_order_relaxed);
-        shaded_total_.fetch_add(shaded, std::memory_order_relaxed);
-        nan_total_.fetch_add(nan, std::memory_order_relaxed);
-        rays_total_.fetch_add(rays, std::memory_order_relaxed);
+            if (++px == width_) {
+                px = 0;
+                ++py;
+            }
+        }
     }
 
     // Parameters.
@@ -872,11 +935,16 @@ class KimSampler final : public PixelSampler {
     LargeVector<Attr> attr_;
     LargeVector<Point> pts_;
 
+    // Per lattice point (blocked layout, see at()): colour (0 when not finite) and rays.
+    LargeVector<Rgb> col_;
+    LargeVector<float> ray_;
+
     // Per pixel (row-major), written by the resolve stage.
     std::vector<Rgb> pix_color_;
     std::vector<float> pix_rays_, pix_traced_, pix_class_, pix_check_, pix_pc_;
-    // Frame totals, summed per tile by the resolve stage.
-    std::atomic<uint64_t> traced_total_{0}, shaded_total_{0}, nan_total_{0}, rays_total_{0};
+    // Frame totals, added per stage tile (Counts).
+    std::atomic<uint64_t> traced_total_{0}, shaded_total_{0}, rays_total_{0};
+    std::atomic<int64_t> nan_total_{0};
     FrameShadowRays shadow_;
     // Bounding box of the B pixels' hit points this frame (scene-size = 0), merged per tile.
     std::mutex box_mutex_;
