@@ -64,6 +64,7 @@ void accumulate(sched::AdaptiveStats &total, const sched::AdaptiveStats &s) {
     total.out_of_time = s.out_of_time;
     total.converged = s.converged;
     total.refinements += s.refinements;
+    total.catch_up_passes += s.catch_up_passes;
     total.final_error_target = s.final_error_target;
     total.tiles_rendered += s.tiles_rendered;
     total.tiles_skipped += s.tiles_skipped;
@@ -416,6 +417,7 @@ RenderReport run_render(const RenderOptions &opt) {
         j["nan_count"] = s.nan_samples;
         j["threads"] = s.threads;
         j["passes"] = rep.passes_total;
+        j["catch_up_passes"] = s.catch_up_passes;
         j["pixels_skipped"] = s.pixels_skipped;
         j["tiles_skipped"] = s.tiles_skipped;
         j["lock_wait_fraction"] = s.lock_wait_fraction;

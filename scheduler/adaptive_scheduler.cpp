@@ -779,6 +779,22 @@ bool AdaptiveScheduler::rebuild_quadrant(int q, RenderContext &ctx, WorkerState 
     return refined;
 }
 
+bool AdaptiveScheduler::open_pixel_below(uint32_t target, WorkerState &ws) const {
+    // No rebuild runs concurrently (every worker has joined): the live trees are read as is.
+    for (size_t t = 0; t < tiles_.size(); ++t) {
+        const Tile &tile = tiles_[t];
+        const Quadrant &quad = *quadrants_[tile_quadrant_[t]];
+        quad.live().active_rects(
+            sampling::PixelBounds{int(tile.x0), int(tile.y0), int(tile.x1), int(tile.y1)}, ws.rects);
+        for (const sampling::PixelBounds &r : ws.rects)
+            for (int y = std::max(r.y0, int(tile.y0)); y < std::min(r.y1, int(tile.y1)); ++y)
+                for (int x = std::max(r.x0, int(tile.x0)); x < std::min(r.x1, int(tile.x1)); ++x)
+                    if (film_.sample_count(uint32_t(x), uint32_t(y)) < target)
+                        return true;
+    }
+    return false;
+}
+
 void AdaptiveScheduler::rebuild_all(RenderContext &ctx, WorkerState &ws, bool pass_end) {
     // In order, on one thread: the result depends on the film only (deterministic mode). A
     // rebuild that lowered the target leaves the quadrants before it built for the old one:
@@ -999,6 +1015,24 @@ AdaptiveStats AdaptiveScheduler::render(const std::atomic<bool> *cancel) {
                 tbb::global_control::max_allowed_parallelism, size_t(threads_));
         tbb::task_arena arena{int(threads_)};
 
+        // Catch-up passes. The schedule can end with a region open whose pixels are below its
+        // last target: the last rebuild cut the tree anew (float splits), or, barrier-free, a
+        // thread running ahead on a stale tree (its neighbour's rebuild preempted) skipped a
+        // region in the last passes that a later rebuild reopened. The render would end
+        // unconverged below max_spp. While that holds, run one more pass (a new pass index
+        // whose target is the last one: no pixel goes past the schedule's final count, so the
+        // sample budget means the same), at most kCatchUpPasses. Only where the schedule ends at
+        // the spp cap (not when max_passes cut it short) and not when refining (there the
+        // passes already continue while the budget allows, and a pass may lower the target).
+        constexpr uint64_t kCatchUpPasses = 4;
+        const uint32_t last_target = n_passes > 0 ? pass_target(options_, n_passes - 1) : 0;
+        const bool catch_up = adaptive_ && !refine_ && n_passes > 0 &&
+                              pass_target(options_, n_passes) == last_target;
+        auto catch_up_wanted = [&](uint64_t pass) {
+            return pass < n_passes + kCatchUpPasses && !ctx.stop.load() &&
+                   ctx.open_mask.load() != 0 && open_pixel_below(last_target, main_ws);
+        };
+
         if (!options_.deterministic) {
             // Barrier-free: one work index over (pass, tile) pairs for the whole render.
             ctx.next_work.store(p0 * n_tiles);
@@ -1019,9 +1053,40 @@ AdaptiveStats AdaptiveScheduler::render(const std::atomic<bool> *cancel) {
                 run_workers(arena, threads_, ctx, worker);
             for (const auto &q : quadrants_)
                 stats.passes = std::max(stats.passes, q->passes_done.load());
+            if (catch_up) {
+                // All rebuilds are done, but a quadrant's last one may predate its neighbours'
+                // last samples in its margin: rebuild from the finished film first.
+                rebuild_all(ctx, main_ws, true);
+                if (ctx.open_mask.load() == 0)
+                    ctx.converged = ctx.stop = true;
+                for (uint64_t pass = n_passes; catch_up_wanted(pass); ++pass) {
+                    ctx.next_work.store(0);
+                    auto worker = [&](uint32_t) {
+                        WorkerState ws;
+                        while (!ctx.should_stop()) {
+                            uint64_t t = ctx.next_work.fetch_add(1, std::memory_order_relaxed);
+                            if (t >= n_tiles)
+                                break;
+                            process_tile(size_t(t), uint32_t(pass), ctx, ws);
+                        }
+                        ws.merge_into(ctx);
+                    };
+                    run_workers(arena, threads_, ctx, worker);
+                    ++stats.catch_up_passes;
+                    ctx.progress->set_passes(uint32_t(pass + 1));
+                    rebuild_all(ctx, main_ws, true);
+                    if (ctx.open_mask.load() == 0)
+                        ctx.converged = ctx.stop = true;
+                }
+                stats.passes += stats.catch_up_passes;
+            }
         } else {
             // Deterministic: barrier after each pass, then all rebuilds on this thread.
-            for (uint64_t pass = p0; pass < n_passes && !ctx.stop.load(); ++pass) {
+            for (uint64_t pass = p0; !ctx.stop.load(); ++pass) {
+                if (pass >= n_passes && !(catch_up && catch_up_wanted(pass)))
+                    break;
+                if (pass >= n_passes)
+                    ++stats.catch_up_passes;
                 ctx.next_work.store(0);
                 auto worker = [&](uint32_t) {
                     WorkerState ws;

@@ -186,6 +186,10 @@ struct AdaptiveStats {
     /// Every quadrant's tree complete (error target reached); with refinement, complete at a
     /// target that refine_min_target does not let it lower further.
     bool converged = false;
+    /// Passes run after the schedule because it ended with an open region holding pixels below
+    /// the last pass's target (a region reopened by the last rebuild, or skipped on a stale
+    /// tree; see AdaptiveScheduler::render). Included in `passes`.
+    uint32_t catch_up_passes = 0;
     /// The region error target in force at the end (error_target when no refinement ran).
     double final_error_target = 0;
     /// Times the target was lowered (AdaptiveOptions::refine_target) in this call.
@@ -301,6 +305,9 @@ class AdaptiveScheduler {
     /// rebuild completed the image and lowered the target (the caller rebuilds again).
     /// `pass_idle`: the quadrant's pass just ended without taking a sample (refining).
     bool rebuild_quadrant(int q, RenderContext &ctx, WorkerState &ws, bool pass_idle = false);
+    /// Does an open region of the live trees hold a pixel with fewer than `target` samples?
+    /// (After the workers have joined; the barrier-free catch-up passes.)
+    bool open_pixel_below(uint32_t target, WorkerState &ws) const;
     /// Rebuilds all four quadrants in order on the calling thread, again while that lowers the
     /// target (deterministic mode and resume).
     /// `pass_end`: after a pass (its samples decide which quadrants were idle).

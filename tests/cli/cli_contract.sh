@@ -162,6 +162,7 @@ assert s["rays"] >= s["samples"], (s["rays"], s["samples"])
 assert s["nan_count"] == 0, s["nan_count"]
 assert s["threads"] >= 1, s["threads"]
 assert math.isfinite(s["wall_s"]) and s["wall_s"] >= 0, s["wall_s"]
+assert s["catch_up_passes"] == 0, s["catch_up_passes"]  # every pixel at --spp after pass 0
 PY
     # Without -o the scene's Film "filename" is used (relative to the current folder).
     run render scene.pbrt --spp 1 -q
