@@ -1033,6 +1033,23 @@ AdaptiveStats AdaptiveScheduler::render(const std::atomic<bool> *cancel) {
                    ctx.open_mask.load() != 0 && open_pixel_below(last_target, main_ws);
         };
 
+        // One pass over every tile, all threads, ending at a barrier (the deterministic passes
+        // and the catch-up passes).
+        auto run_pass = [&](uint64_t pass) {
+            ctx.next_work.store(0);
+            auto worker = [&](uint32_t) {
+                WorkerState ws;
+                while (!ctx.should_stop()) {
+                    uint64_t t = ctx.next_work.fetch_add(1, std::memory_order_relaxed);
+                    if (t >= n_tiles)
+                        break;
+                    process_tile(size_t(t), uint32_t(pass), ctx, ws);
+                }
+                ws.merge_into(ctx);
+            };
+            run_workers(arena, threads_, ctx, worker);
+        };
+
         if (!options_.deterministic) {
             // Barrier-free: one work index over (pass, tile) pairs for the whole render.
             ctx.next_work.store(p0 * n_tiles);
@@ -1060,18 +1077,7 @@ AdaptiveStats AdaptiveScheduler::render(const std::atomic<bool> *cancel) {
                 if (ctx.open_mask.load() == 0)
                     ctx.converged = ctx.stop = true;
                 for (uint64_t pass = n_passes; catch_up_wanted(pass); ++pass) {
-                    ctx.next_work.store(0);
-                    auto worker = [&](uint32_t) {
-                        WorkerState ws;
-                        while (!ctx.should_stop()) {
-                            uint64_t t = ctx.next_work.fetch_add(1, std::memory_order_relaxed);
-                            if (t >= n_tiles)
-                                break;
-                            process_tile(size_t(t), uint32_t(pass), ctx, ws);
-                        }
-                        ws.merge_into(ctx);
-                    };
-                    run_workers(arena, threads_, ctx, worker);
+                    run_pass(pass);
                     ++stats.catch_up_passes;
                     ctx.progress->set_passes(uint32_t(pass + 1));
                     rebuild_all(ctx, main_ws, true);
@@ -1087,18 +1093,7 @@ AdaptiveStats AdaptiveScheduler::render(const std::atomic<bool> *cancel) {
                     break;
                 if (pass >= n_passes)
                     ++stats.catch_up_passes;
-                ctx.next_work.store(0);
-                auto worker = [&](uint32_t) {
-                    WorkerState ws;
-                    while (!ctx.should_stop()) {
-                        uint64_t t = ctx.next_work.fetch_add(1, std::memory_order_relaxed);
-                        if (t >= n_tiles)
-                            break;
-                        process_tile(size_t(t), uint32_t(pass), ctx, ws);
-                    }
-                    ws.merge_into(ctx);
-                };
-                run_workers(arena, threads_, ctx, worker);
+                run_pass(pass);
                 if (ctx.stop_cancel.load() || ctx.stop_time.load())
                     break;
                 ++stats.passes;
