@@ -693,7 +693,9 @@ class KimSampler final : public PixelSampler {
                 } else {  // both escaped: no surface to shade
                     color = clamp_zero(col_[ia] + (col_[ib] - col_[ia]) * t);
                 }
-                const bool finite = color.is_finite();
+                // A non-finite reference (stored as 0) makes the interpolation non-finite too.
+                const bool finite =
+                    color.is_finite() && (a.oid >= 0 || !(pts_[ia].nan || pts_[ib].nan));
                 pt.nan = finite ? 0 : 1;
                 counts.nan += pt.nan;
                 col_[i] = finite ? color : Rgb(0.f);
