@@ -387,6 +387,28 @@ TEST_CASE("kim: a non-finite sample is dropped and never interpolated") {
     }
 }
 
+TEST_CASE("kim: an interpolation between escaped references, one non-finite, is dropped") {
+    // Every pixel escapes (no surface: OID -1), so the checks on position and normal do not
+    // apply and A pixels take the linear interpolation of their references' colours. B pixel 2
+    // returns NaN (through its position, which escaped pixels do not compare): pixel 1 (between
+    // 0 and 2) and pixel 3 (extrapolated from 0 and 2) are interpolated from it, so they are
+    // non-finite too: dropped (colour 0) and counted, like the NaN sample itself. (Its stored
+    // colour is 0; interpolating that, or clamping the NaN to 0, would darken them silently.)
+    TableSource src(4, 1);
+    for (uint32_t x = 0; x < 4; ++x) src(x, 0).primary.object_id = -1;
+    src(2, 0).primary.position.x = std::nanf("");
+    FrameResult r = render_kim(src, "scene-size=100,postcorrect=0");
+    CHECK(at(r, "traced", 1, 0) == 0.f);  // interpolated, not traced
+    CHECK(at(r, "traced", 3, 0) == 0.f);
+    CHECK(r.nan_samples == 3);
+    for (uint32_t x : {1u, 2u, 3u}) {
+        CAPTURE(x);
+        CHECK(r.color[x].r == 0.f);
+        CHECK(r.color[x].g == 0.f);
+    }
+    CHECK(r.color[0].g == doctest::Approx(0.2f));
+}
+
 TEST_CASE("kim: T_pos is relative to the scene's longest side") {
     // The B hits of a 32-pixel plane span 30 units: T_pos = 0.9 < 2 (the reference distance),
     // so G2 fails everywhere; at 128 pixels T_pos = 3.78 and every A pixel is interpolated.
