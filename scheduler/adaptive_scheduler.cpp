@@ -1070,9 +1070,10 @@ AdaptiveStats AdaptiveScheduler::render(const std::atomic<bool> *cancel) {
                 run_workers(arena, threads_, ctx, worker);
             for (const auto &q : quadrants_)
                 stats.passes = std::max(stats.passes, q->passes_done.load());
-            if (catch_up) {
+            if (catch_up && !ctx.stop.load()) {
                 // All rebuilds are done, but a quadrant's last one may predate its neighbours'
-                // last samples in its margin: rebuild from the finished film first.
+                // last samples in its margin: rebuild from the finished film first. (Not after
+                // a stop: converged, out of time or cancelled.)
                 rebuild_all(ctx, main_ws, true);
                 if (ctx.open_mask.load() == 0)
                     ctx.converged = ctx.stop = true;
