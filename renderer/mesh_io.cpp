@@ -150,11 +150,20 @@ void check_ply_file(const std::string &path) {
                 fail(path, "malformed PLY header line \"" + line.substr(0, 80) + "\"");
         };
         if (kw == "comment" || kw == "obj_info") continue;
+        // One format line before any element, and each element name once (the
+        // specification's layout): fuzz_ply made assimp free memory it had not allocated with a
+        // second format line and repeated "vertex" and "face" elements.
         if (kw == "format") {
             expect_words(2);
+            if (!format.empty() || !elements.empty())
+                fail(path, "PLY header has a second or late \"format\" line");
             format = words[0];
         } else if (kw == "element") {
             expect_words(2);
+            if (format.empty()) fail(path, "PLY element before the \"format\" line");
+            for (const PlyElement &seen : elements)
+                if (seen.name == words[0])
+                    fail(path, "PLY element \"" + words[0] + "\" appears twice");
             PlyElement e;
             e.name = words[0];
             const std::string &num = words[1];
