@@ -175,6 +175,12 @@ class PixelSampler {
     /// Parallel over tiles. Tiles of stage s+1 start only after every tile of stage s finished
     /// and end_stage(s) returned.
     virtual void run_tile(int stage, const PixelRect &tile, const SampleSource &source) = 0;
+    /// A hint, from the thread that will run `tile` of `stage` next, called just before it
+    /// runs the tile it holds now: bring the next tile's data into the cache (prefetch
+    /// instructions, or reads of bytes that only that tile writes in this stage; no writes, no
+    /// state). Stages that walk large per-frame arrays tile by tile otherwise wait for one cold
+    /// miss after another at every tile's start. Default: nothing.
+    virtual void prefetch_tile(int /*stage*/, const PixelRect & /*tile*/) const {}
     /// Serial, after the barrier that ends `stage`.
     virtual void end_stage(int /*stage*/, const SampleSource & /*source*/) {}
     /// Serial, after the last stage: writes the frame's colours, rays, diagnostics and counts.

@@ -101,17 +101,24 @@ FrameTiming FrameScheduler::render(sampling::PixelSampler &sampler, const Sample
         const auto t_stage = Clock::now();
         std::atomic<uint32_t> next{0};
         std::atomic<bool> stopped{false};
+        auto rect = [&](uint32_t i) {
+            const Tile &t = tiles_[i];
+            return sampling::PixelRect{t.x0, t.y0, t.x1, t.y1, i, n};
+        };
+        // Each thread claims its next tile before it runs the current one, so that the
+        // sampler can prefetch the next tile's data while the current one computes.
         auto work = [&] {
-            for (;;) {
+            uint32_t i = next.fetch_add(1, std::memory_order_relaxed);
+            while (i < n) {
                 if (cancel && cancel->load(std::memory_order_relaxed)) {
                     stopped.store(true, std::memory_order_relaxed);
                     return;
                 }
-                uint32_t i = next.fetch_add(1, std::memory_order_relaxed);
-                if (i >= n) return;
-                const Tile &t = tiles_[i];
-                sampler.run_tile(stage, sampling::PixelRect{t.x0, t.y0, t.x1, t.y1, i, n},
-                                 source);
+                const uint32_t j = next.fetch_add(1, std::memory_order_relaxed);
+                if (j < n)
+                    sampler.prefetch_tile(stage, rect(j));
+                sampler.run_tile(stage, rect(i), source);
+                i = j;
             }
         };
         if (workers == 1)
