@@ -105,20 +105,31 @@ FrameTiming FrameScheduler::render(sampling::PixelSampler &sampler, const Sample
             const Tile &t = tiles_[i];
             return sampling::PixelRect{t.x0, t.y0, t.x1, t.y1, i, n};
         };
-        // Each thread claims its next tile before it runs the current one, so that the
+        // Threads claim runs of `chunk` consecutive tiles (Morton order) with one atomic add:
+        // at 1024x1024 a stage has 16384 tiles, and a tile of a cheap stage (a copy, a scan
+        // that finds nothing) takes less time than taking the shared counter's cache line from
+        // another core. Runs stay short enough (at least 64 per thread) to balance the load.
+        // Each thread also knows its next tile before it runs the current one, so that the
         // sampler can prefetch the next tile's data while the current one computes.
+        const uint32_t chunk = std::clamp<uint32_t>(n / (workers * 64), 1, 8);
         auto work = [&] {
-            uint32_t i = next.fetch_add(1, std::memory_order_relaxed);
+            uint32_t i = next.fetch_add(chunk, std::memory_order_relaxed);
+            uint32_t end = std::min(n, i + chunk);
             while (i < n) {
                 if (cancel && cancel->load(std::memory_order_relaxed)) {
                     stopped.store(true, std::memory_order_relaxed);
                     return;
                 }
-                const uint32_t j = next.fetch_add(1, std::memory_order_relaxed);
+                uint32_t j = i + 1, jend = end;
+                if (j >= end) {
+                    j = next.fetch_add(chunk, std::memory_order_relaxed);
+                    jend = std::min(n, j + chunk);
+                }
                 if (j < n)
                     sampler.prefetch_tile(stage, rect(j));
                 sampler.run_tile(stage, rect(i), source);
                 i = j;
+                end = jend;
             }
         };
         if (workers == 1)
