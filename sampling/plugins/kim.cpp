@@ -46,8 +46,9 @@
 //    512^2 at 2x2 has the ratio of 1024^2 at 1x1); `ss` sets the lattice and the pixel colour is
 //    the box-filtered mean of its ss x ss samples.
 //
-// Stages (each a barrier): base | a1 | a2 | [a1, a2 per further level] | one stage per
-// post-correction scan | resolve. A stage's tile writes only its own lattice points; references
+// Stages (each a barrier): base | a1 | a2 | [a1, a2 per further level] | two stages per
+// post-correction scan (the tiles' segments, then the chains that cross tile borders) |
+// resolve. A stage's tile writes only its own lattice points; references
 // of neighbouring tiles come from earlier stages and are read-only. Samples are at the centres of
 // the lattice cells (the paper's regular sampling; no jitter), so a frame is deterministic.
 //
@@ -89,9 +90,10 @@
 //    parallel stage in which every tile scans its own line segments (lines of a tile advance in
 //    lock step so that candidates are traced together through evaluate_batch); where a segment
 //    ends on a ray-traced adaptive pixel whose neighbour in the next tile is a candidate, the
-//    line is flagged, and the serial end_stage then re-runs the scan over the flagged lines,
-//    continuing those chains across tile borders with single rays. The result is exactly that
-//    of a serial scan of every image line, for any thread count. A candidate's traced result is
+//    line is flagged, and a second stage (its jobs: whole lines, split by the tile's place in
+//    the work list) re-runs the scan over the flagged lines, continuing those chains across
+//    tile borders with single rays. The result is exactly that of a serial scan of every image
+//    line, for any thread count. A candidate's traced result is
 //    kept even when its OID/SHDBIT did not change (the ray was paid for and is exact), but only
 //    changed pixels propagate, as in the paper. B pixels are not revisited (the paper revisits
 //    adaptive pixels only; a B pixel's interpolated neighbours always share its OID).
@@ -354,10 +356,10 @@ void interpolate(Attr &r, const Attr &a, const Attr &b, float t, float za = 1.f,
 
 /// Which step a stage performs.
 struct StageDesc {
-    enum class Kind { Base, Rows, Columns, Scan, Resolve } kind = Kind::Base;
+    enum class Kind { Base, Rows, Columns, Scan, Cross, Resolve } kind = Kind::Base;
     uint32_t level = 1;      ///< Rows/Columns: half the reference distance s
-    bool horizontal = true;  ///< Scan: rows (true) or columns
-    int step = 1;            ///< Scan: +1 left-to-right / top-to-bottom, -1 the reverse
+    bool horizontal = true;  ///< Scan, Cross: rows (true) or columns
+    int step = 1;            ///< Scan, Cross: +1 left-to-right / top-to-bottom, -1 the reverse
     std::string name;
 };
 
@@ -399,14 +401,20 @@ class KimSampler final : public PixelSampler {
         }
         // Sec. 5: left to right, right to left, top to bottom, bottom to top; two directions:
         // left to right and top to bottom.
+        // Each scan is two stages: the tiles' own segments, then the chains that cross tile
+        // borders ("-cross").
+        auto scan = [&](bool horizontal, int step, const std::string &name) {
+            stages_.push_back({StageDesc::Kind::Scan, 0, horizontal, step, name});
+            stages_.push_back({StageDesc::Kind::Cross, 0, horizontal, step, name + "-cross"});
+        };
         if (postcorrect_ == 4) {
-            stages_.push_back({StageDesc::Kind::Scan, 0, true, 1, "postcorrect-lr"});
-            stages_.push_back({StageDesc::Kind::Scan, 0, true, -1, "postcorrect-rl"});
-            stages_.push_back({StageDesc::Kind::Scan, 0, false, 1, "postcorrect-tb"});
-            stages_.push_back({StageDesc::Kind::Scan, 0, false, -1, "postcorrect-bt"});
+            scan(true, 1, "postcorrect-lr");
+            scan(true, -1, "postcorrect-rl");
+            scan(false, 1, "postcorrect-tb");
+            scan(false, -1, "postcorrect-bt");
         } else if (postcorrect_ == 2) {
-            stages_.push_back({StageDesc::Kind::Scan, 0, true, 1, "postcorrect-lr"});
-            stages_.push_back({StageDesc::Kind::Scan, 0, false, 1, "postcorrect-tb"});
+            scan(true, 1, "postcorrect-lr");
+            scan(false, 1, "postcorrect-tb");
         }
         stages_.push_back({StageDesc::Kind::Resolve, 0, true, 1, "resolve"});
     }
@@ -492,6 +500,13 @@ class KimSampler final : public PixelSampler {
             case StageDesc::Kind::Scan:
                 scan_tile(st, x0, y0, x1, y1, source);
                 break;
+            case StageDesc::Kind::Cross: {  // this job's share of the lines
+                const uint32_t lines = st.horizontal ? lh_ : lw_;
+                const uint32_t count = std::max<uint32_t>(1, tile.count);
+                cross_lines(st, uint32_t(uint64_t(tile.index) * lines / count),
+                            uint32_t(uint64_t(tile.index + 1) * lines / count), source);
+                break;
+            }
             case StageDesc::Kind::Resolve:
                 resolve_tile(tile);
                 break;
@@ -534,12 +549,10 @@ class KimSampler final : public PixelSampler {
         asm volatile("" : : "r"(acc));
     }
 
-    void end_stage(int stage, const SampleSource &source) override {
+    void end_stage(int stage, const SampleSource & /*source*/) override {
         const StageDesc &st = stages_[size_t(stage)];
         if (st.kind == StageDesc::Kind::Base && scene_size_ <= 0.f)
             th_.pos = box_any_ ? t_pos_ * max_component(box_hi_ - box_lo_) : 0.f;
-        if (st.kind == StageDesc::Kind::Scan)
-            continue_scans(st, source);
     }
 
     void end_frame(FrameResult &r) override {
@@ -894,7 +907,7 @@ class KimSampler final : public PixelSampler {
             add_counts(counts);
         }
         // A chain that reaches the segment's end continues in the next tile: flag the line for
-        // end_stage. The neighbour read here is the first point of the next tile's segment in
+        // the Cross stage. The neighbour read here is the first point of the next tile's segment in
         // this scan direction, which no tile writes during this stage (it has no predecessor
         // inside its own tile), so the read does not race.
         const uint32_t exit = st.step > 0 ? a1 - 1 : a0;
@@ -902,8 +915,8 @@ class KimSampler final : public PixelSampler {
         if ((st.step > 0 && exit + 1 >= limit) || (st.step < 0 && exit == 0))
             return;
         const uint32_t next = st.step > 0 ? exit + 1 : exit - 1;
-        // The serial walk starts at the line's earliest crossing (its step number k, see
-        // continue_scans): before it no candidate is left.
+        // The Cross stage's walk starts at the line's earliest crossing (its step number k, see
+        // cross_lines): before it no candidate is left.
         const uint32_t k_next = st.step > 0 ? next : limit - 1 - next;
         for (uint32_t l = l0; l < l1; ++l)
             if (candidate(point(next, l), point(exit, l))) {
@@ -914,15 +927,17 @@ class KimSampler final : public PixelSampler {
             }
     }
 
-    /// Serial: re-runs the scan over every flagged line from its earliest crossing on, which
-    /// continues the chains that crossed tile borders (everything inside the tiles is already
-    /// done, so only those continuations trace). Same result as one serial scan per line: up to
-    /// the first crossing, every candidate was a tile's own and has been traced (a candidate
-    /// whose predecessor lies in the previous tile is exactly a crossing).
-    void continue_scans(const StageDesc &st, const SampleSource &source) {
-        const uint32_t lines = st.horizontal ? lh_ : lw_, len = st.horizontal ? lw_ : lh_;
+    /// Lines [l0, l1) of the Cross stage after a scan: re-runs the scan over every flagged line
+    /// from its earliest crossing on, which continues the chains that crossed tile borders
+    /// (everything inside the tiles is already done, so only those continuations trace). Same
+    /// result as one serial scan per line: up to the first crossing, every candidate was a
+    /// tile's own and has been traced (a candidate whose predecessor lies in the previous tile
+    /// is exactly a crossing). A line is one job's alone, and a point is on one line of the
+    /// scan's direction, so jobs write disjoint points.
+    void cross_lines(const StageDesc &st, uint32_t l0, uint32_t l1, const SampleSource &source) {
+        const uint32_t len = st.horizontal ? lw_ : lh_;
         Sample s;
-        for (uint32_t l = 0; l < lines; ++l) {
+        for (uint32_t l = l0; l < l1; ++l) {
             const uint32_t k_first = line_flags_[l].load(std::memory_order_relaxed);
             if (k_first == kNoCrossing)
                 continue;
@@ -1044,7 +1059,7 @@ class KimSampler final : public PixelSampler {
     bool box_any_ = false;
 
     // Post-correction: lines (rows or columns) whose chains cross a tile border.
-    // Per line: the step number k (continue_scans) of its earliest crossing, kNoCrossing if none.
+    // Per line: the step number k (cross_lines) of its earliest crossing, kNoCrossing if none.
     static constexpr uint32_t kNoCrossing = ~0u;
     std::unique_ptr<std::atomic<uint32_t>[]> line_flags_;
     uint32_t line_flags_size_ = 0;
