@@ -2,8 +2,11 @@
 #include <doctest/doctest.h>
 
 #include <atomic>
+#include <map>
 #include <mutex>
 #include <set>
+#include <thread>
+#include <tuple>
 #include <utility>
 
 #include "sampling/pixel_sampler.h"
@@ -37,6 +40,23 @@ class RecordingSampler final : public PixelSampler {
         std::lock_guard<std::mutex> lock(m);
         tiles.insert({stage, t.x0, t.y0});
         ++tile_calls;
+        const std::thread::id me = std::this_thread::get_id();
+        if (auto it = expected.find(me); it != expected.end()) {
+            if (it->second != std::tuple<int, uint32_t, uint32_t>{stage, t.x0, t.y0})
+                wrong_prefetch = true;
+            expected.erase(it);
+        }
+        if (auto it = announced.find(me); it != announced.end()) {
+            expected[me] = it->second;
+            announced.erase(it);
+        }
+    }
+    /// The hint names the tile this thread runs after the one it is about to run (checked in
+    /// run_tile).
+    void prefetch_tile(int stage, const PixelRect &t) const override {
+        std::lock_guard<std::mutex> lock(m);
+        announced[std::this_thread::get_id()] = {stage, t.x0, t.y0};
+        ++prefetch_calls;
     }
     void end_stage(int stage, const SampleSource &) override { stage_done = stage; }
     void end_frame(FrameResult &r) override { r.reset(w, h); }
@@ -45,16 +65,22 @@ class RecordingSampler final : public PixelSampler {
     std::vector<std::vector<std::atomic<int>>> calls;
     std::atomic<int> stage_done{-1};
     std::atomic<bool> barrier_violated{false};
-    std::mutex m;
+    mutable std::mutex m;
     std::set<std::tuple<int, uint32_t, uint32_t>> tiles;
     int tile_calls = 0;
+    // Per thread: the tile its last prefetch_tile named, and the tile it must run next.
+    mutable std::map<std::thread::id, std::tuple<int, uint32_t, uint32_t>> announced, expected;
+    mutable int prefetch_calls = 0;
+    bool wrong_prefetch = false;
 };
 
 }  // namespace
 
 TEST_CASE("frame scheduler: every pixel once per stage, stages separated by barriers") {
+    // The larger images make the scheduler hand out runs of 2 to 8 tiles per claim.
     for (uint32_t threads : {1u, 3u, 8u}) {
-        for (auto wh : {std::pair{1u, 1u}, {7u, 9u}, {8u, 8u}, {37u, 21u}}) {
+        for (auto wh : {std::pair{1u, 1u}, {7u, 9u}, {8u, 8u}, {37u, 21u}, {300u, 200u},
+                        {1001u, 603u}}) {
             const uint32_t w = wh.first, h = wh.second;  // CAPTURE needs plain variables
             test::SyntheticAttributeSource src(w, h);
             RecordingSampler rec;
@@ -72,6 +98,11 @@ TEST_CASE("frame scheduler: every pixel once per stage, stages separated by barr
             for (auto &v : rec.calls)
                 for (auto &c : v) once = once && c.load() == 1;
             CHECK(once);
+            // Every tile but each thread's first of a stage was announced by prefetch_tile on
+            // the thread that then ran it next.
+            CHECK_FALSE(rec.wrong_prefetch);
+            CHECK(rec.prefetch_calls >= int(3 * (tiles - std::min(tiles, threads))));
+            CHECK(rec.prefetch_calls <= rec.tile_calls);
             CHECK(r.width == w);
             CHECK(r.height == h);
         }
