@@ -172,8 +172,15 @@ class PixelSampler {
     virtual int stage_count() const = 0;
     /// Short name of a stage for timing reports ("presample", "test", "supersample", ...).
     virtual std::string stage_name(int stage) const;
-    /// Parallel over tiles. Tiles of stage s+1 start only after every tile of stage s finished
-    /// and end_stage(s) returned.
+    /// What stage `stage` is split into, asked serially just before it starts (after
+    /// end_stage of the stage before): kTileJobs (the default), one job per tile, or N jobs
+    /// that are not tiles: run_tile then gets an empty rectangle with index k of count N, and
+    /// the stage splits its work by those (rows of a copy, lines of a scan). N = 0 runs no job
+    /// (end_stage still runs).
+    static constexpr uint32_t kTileJobs = ~0u;
+    virtual uint32_t stage_jobs(int /*stage*/) const { return kTileJobs; }
+    /// Parallel over tiles (or the stage's jobs, see stage_jobs). Tiles of stage s+1 start only
+    /// after every tile of stage s finished and end_stage(s) returned.
     virtual void run_tile(int stage, const PixelRect &tile, const SampleSource &source) = 0;
     /// A hint, from the thread that will run `tile` of `stage` next, called just before it
     /// runs the tile it holds now: bring the next tile's data into the cache (prefetch

@@ -101,7 +101,13 @@ FrameTiming FrameScheduler::render(sampling::PixelSampler &sampler, const Sample
         const auto t_stage = Clock::now();
         std::atomic<uint32_t> next{0};
         std::atomic<bool> stopped{false};
+        // One job per tile, or the stage's own count of jobs that are not tiles.
+        const uint32_t asked = sampler.stage_jobs(stage);
+        const bool by_tile = asked == sampling::PixelSampler::kTileJobs;
+        const uint32_t jobs = by_tile ? n : asked;
         auto rect = [&](uint32_t i) {
+            if (!by_tile)
+                return sampling::PixelRect{0, 0, 0, 0, i, jobs};
             const Tile &t = tiles_[i];
             return sampling::PixelRect{t.x0, t.y0, t.x1, t.y1, i, n};
         };
@@ -111,11 +117,11 @@ FrameTiming FrameScheduler::render(sampling::PixelSampler &sampler, const Sample
         // another core. Runs stay short enough (at least 64 per thread) to balance the load.
         // Each thread also knows its next tile before it runs the current one, so that the
         // sampler can prefetch the next tile's data while the current one computes.
-        const uint32_t chunk = std::clamp<uint32_t>(n / (workers * 64), 1, 8);
+        const uint32_t chunk = std::clamp<uint32_t>(jobs / (workers * 64), 1, 8);
         auto work = [&] {
             uint32_t i = next.fetch_add(chunk, std::memory_order_relaxed);
-            uint32_t end = std::min(n, i + chunk);
-            while (i < n) {
+            uint32_t end = std::min(jobs, i + chunk);
+            while (i < jobs) {
                 if (cancel && cancel->load(std::memory_order_relaxed)) {
                     stopped.store(true, std::memory_order_relaxed);
                     return;
@@ -123,19 +129,22 @@ FrameTiming FrameScheduler::render(sampling::PixelSampler &sampler, const Sample
                 uint32_t j = i + 1, jend = end;
                 if (j >= end) {
                     j = next.fetch_add(chunk, std::memory_order_relaxed);
-                    jend = std::min(n, j + chunk);
+                    jend = std::min(jobs, j + chunk);
                 }
-                if (j < n)
+                if (j < jobs)
                     sampler.prefetch_tile(stage, rect(j));
                 sampler.run_tile(stage, rect(i), source);
                 i = j;
                 end = jend;
             }
         };
-        if (workers == 1)
+        if (jobs == 0) {
+            // nothing to run
+        } else if (workers == 1 || jobs == 1) {
             work();
-        else
+        } else {
             pool_->run(work);
+        }
         sampler.end_stage(stage, source);
         timing.stage_names.push_back(sampler.stage_name(stage));
         timing.stage_ms.push_back(ms_since(t_stage));

@@ -471,6 +471,7 @@ class KimSampler final : public PixelSampler {
         }
         for (uint32_t i = 0; i < line_flags_size_; ++i)
             line_flags_[i].store(kNoCrossing, std::memory_order_relaxed);
+        crossed_.store(false, std::memory_order_relaxed);
         th_.pos = t_pos_ * scene_size_;
         box_lo_ = Vec3f(kInfinity, kInfinity, kInfinity);
         box_hi_ = Vec3f(-kInfinity, -kInfinity, -kInfinity);
@@ -483,6 +484,18 @@ class KimSampler final : public PixelSampler {
     uint32_t attributes_used() const override { return kAttrPrimary | kAttrTexture; }
 
     int stage_count() const override { return int(stages_.size()); }
+
+    /// Cross: one job per line of the scan's direction, none when no chain crossed a tile
+    /// border; resolve: one job per pixel row (row-major runs of the output). The other
+    /// stages: one job per tile.
+    uint32_t stage_jobs(int stage) const override {
+        const StageDesc &st = stages_[size_t(stage)];
+        if (st.kind == StageDesc::Kind::Cross)
+            return crossed_.load(std::memory_order_relaxed) ? (st.horizontal ? lh_ : lw_) : 0;
+        if (st.kind == StageDesc::Kind::Resolve)
+            return height_;
+        return kTileJobs;
+    }
     std::string stage_name(int stage) const override { return stages_[size_t(stage)].name; }
 
     void run_tile(int stage, const PixelRect &tile, const SampleSource &source) override {
@@ -551,6 +564,8 @@ class KimSampler final : public PixelSampler {
 
     void end_stage(int stage, const SampleSource & /*source*/) override {
         const StageDesc &st = stages_[size_t(stage)];
+        if (st.kind == StageDesc::Kind::Cross)
+            crossed_.store(false, std::memory_order_relaxed);
         if (st.kind == StageDesc::Kind::Base && scene_size_ <= 0.f)
             th_.pos = box_any_ ? t_pos_ * max_component(box_hi_ - box_lo_) : 0.f;
     }
@@ -920,6 +935,7 @@ class KimSampler final : public PixelSampler {
         const uint32_t k_next = st.step > 0 ? next : limit - 1 - next;
         for (uint32_t l = l0; l < l1; ++l)
             if (candidate(point(next, l), point(exit, l))) {
+                crossed_.store(true, std::memory_order_relaxed);
                 uint32_t k = line_flags_[l].load(std::memory_order_relaxed);
                 while (k_next < k && !line_flags_[l].compare_exchange_weak(
                                          k, k_next, std::memory_order_relaxed)) {
@@ -960,11 +976,11 @@ class KimSampler final : public PixelSampler {
     }
 
     // ---- Resolve: box filter of the ss x ss samples of each pixel -----------------------
-    /// A tile's job is not its own pixels but its share of the row-major output by its place
-    /// in the work list (PixelRect::index of count): a run of consecutive pixels. A tile's own
-    /// pixels are 8 short rows whose cache lines the next tile in the list, resolved at the
-    /// same time on another thread, shares (96 bytes of colour and 32 of rays per tile row):
-    /// every tile border was false sharing. The reads (blocked layout) are shared only.
+    /// A job is not a tile but its share of the row-major output by its place in the work list
+    /// (PixelRect::index of count; stage_jobs asks for one job per pixel row): a run of
+    /// consecutive pixels. (Per tile, a job's pixels would be 8 short rows sharing cache lines
+    /// with the next tile's, resolved at the same time on another thread.) The reads (blocked
+    /// layout) are shared only.
     void resolve_tile(const PixelRect &tile) {
         const size_t np = size_t(width_) * height_, count = std::max<size_t>(1, tile.count);
         const size_t begin = size_t(tile.index) * np / count;
@@ -1062,6 +1078,7 @@ class KimSampler final : public PixelSampler {
     // Per line: the step number k (cross_lines) of its earliest crossing, kNoCrossing if none.
     static constexpr uint32_t kNoCrossing = ~0u;
     std::unique_ptr<std::atomic<uint32_t>[]> line_flags_;
+    std::atomic<bool> crossed_{false};  ///< some line was flagged in the current scan
     uint32_t line_flags_size_ = 0;
     // Per block of at(): 1 when it holds a seed (kTracedA or kCorrected) this frame, so that a
     // scan skips the tiles without one without reading their points.

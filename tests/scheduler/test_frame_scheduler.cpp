@@ -109,6 +109,62 @@ TEST_CASE("frame scheduler: every pixel once per stage, stages separated by barr
     }
 }
 
+namespace {
+
+/// Stage 0 by tiles, stage 1 as `jobs` jobs that are not tiles, stage 2 as none.
+class JobsSampler final : public PixelSampler {
+  public:
+    explicit JobsSampler(uint32_t jobs) : jobs_(jobs), seen(jobs) {}
+    void begin_frame(const SampleSource &) override {}
+    int stage_count() const override { return 3; }
+    uint32_t stage_jobs(int stage) const override {
+        return stage == 0 ? kTileJobs : stage == 1 ? jobs_ : 0;
+    }
+    void run_tile(int stage, const PixelRect &t, const SampleSource &) override {
+        if (stage_done.load() != stage - 1) barrier_violated = true;
+        if (stage == 0) {
+            ++tiles;
+        } else if (stage == 1 && t.count == jobs_ && t.index < jobs_ && t.x1 == t.x0 &&
+                   t.y1 == t.y0) {
+            seen[t.index]++;
+        } else {
+            bad_call = true;
+        }
+    }
+    void end_stage(int stage, const SampleSource &) override {
+        stage_done = stage;
+        ++ends;
+    }
+    void end_frame(FrameResult &r) override { r.reset(1, 1); }
+
+    uint32_t jobs_;
+    std::vector<std::atomic<int>> seen;
+    std::atomic<int> tiles{0}, ends{0}, stage_done{-1};
+    std::atomic<bool> bad_call{false}, barrier_violated{false};
+};
+
+}  // namespace
+
+TEST_CASE("frame scheduler: a stage of jobs that are not tiles, and a stage of none") {
+    for (uint32_t threads : {1u, 3u})
+        for (uint32_t jobs : {1u, 5u, 1000u}) {
+            CAPTURE(threads);
+            CAPTURE(jobs);
+            test::SyntheticAttributeSource src(37, 21);  // 5 x 3 tiles
+            JobsSampler s(jobs);
+            sched::FrameScheduler fs(sched::FrameOptions{threads});
+            FrameResult r;
+            fs.render(s, src, r);
+            CHECK(s.tiles.load() == 15);
+            bool once = true;
+            for (auto &c : s.seen) once = once && c.load() == 1;
+            CHECK(once);
+            CHECK_FALSE(s.bad_call.load());  // stage 2 (no jobs) never runs, others well formed
+            CHECK_FALSE(s.barrier_violated.load());
+            CHECK(s.ends.load() == 3);
+        }
+}
+
 TEST_CASE("plugin registry: names, kinds, parameter parsing and errors") {
     CHECK(find_plugin("uniform")->kind == PluginKind::Progressive);
     CHECK(find_plugin("adaptive")->kind == PluginKind::Progressive);
