@@ -4,7 +4,8 @@
 // one atomic index, so tiles start in Morton order on all threads; the frame's pixels do not
 // depend on the thread count as long as the plugin writes only its own tile's pixels in
 // run_tile. Before running a tile, a worker passes its next tile to the plugin's
-// prefetch_tile. The worker threads are
+// prefetch_tile. A stage may instead ask for its own number of jobs that are not tiles
+// (PixelSampler::stage_jobs: rows of a copy, lines of a scan, or none), handed out the same way. The worker threads are
 // started once per FrameScheduler and reused for every stage and frame.
 #pragma once
 
