@@ -141,6 +141,8 @@ void PerspectiveCamera::set_world_from_camera(const Transform &world_from_camera
     for (int r = 0; r < 3; ++r)
         for (int c = 0; c < 4; ++c)
             world_from_camera_f_[r][c] = float(wc.m[r][c]);
+    position_ = world_from_camera_.point({0, 0, 0});
+    forward_ = normalize(world_from_camera_.vector({0, 0, 1}));
 }
 
 Vec3f PerspectiveCamera::camera_point_world(Vec3f p) const {

@@ -62,14 +62,16 @@ class PerspectiveCamera {
     CameraRay generate_ray(Vec2f p_raster, Vec2f u_lens, bool differentials = true) const;
     /// Lens radius in scene units; 0 for a pinhole (then generate_ray ignores u_lens).
     float lens_radius() const { return lens_radius_; }
-    Vec3f position() const { return world_from_camera_.point({0, 0, 0}); }
+    /// The camera's origin in world space (cached per placement: shading and the real-time
+    /// modes' view depth read it per point).
+    Vec3f position() const { return position_; }
     /// The camera's placement (world from camera space).
     const Transform &world_from_camera() const { return world_from_camera_; }
     /// Moves the camera: a new world-from-camera transform, the projection unchanged (the
     /// real-time loop's --orbit). Not thread-safe against concurrent generate_ray.
     void set_world_from_camera(const Transform &world_from_camera);
-    /// Camera-space direction toward +z transformed to world.
-    Vec3f forward() const { return normalize(world_from_camera_.vector({0, 0, 1})); }
+    /// Camera-space direction toward +z transformed to world, normalised (cached per placement).
+    Vec3f forward() const { return forward_; }
     bool orthographic() const { return orthographic_; }
     /// Approximate position differentials at point p with normal n, for texture filtering
     /// (pbrt-v4 CameraBase::Approximate_dp_dxy), used after the first bounce.
@@ -87,6 +89,7 @@ class PerspectiveCamera {
     // points at depth 0 map to the near plane affinely, so p_camera = p0 + x dx + y dy.
     Vec3f p0_camera_, dx_camera_, dy_camera_;
     float world_from_camera_f_[3][4];
+    Vec3f position_, forward_;  ///< see position(), forward()
     float lens_radius_, focal_distance_;
     bool orthographic_ = false;  ///< pbrt-v4 "orthographic": parallel rays along camera +z
     Vec3f min_pos_dx_, min_pos_dy_, min_dir_dx_, min_dir_dy_;

@@ -249,12 +249,17 @@ class CheckerboardTexture final : public TexBase<T>::type {
   public:
     CheckerboardTexture(std::unique_ptr<Mapping2D> map2d, std::optional<Transform> map3d,
                         TexPtr<T> tex1, TexPtr<T> tex2)
-        : map2d_(std::move(map2d)), map3d_(map3d), tex1_(tex1), tex2_(tex2) {}
+        : map2d_(std::move(map2d)), map3d_(map3d), tex1_(tex1), tex2_(tex2),
+          uv_(dynamic_cast<const UvMapping *>(map2d_.get())), c1_(tex1->constant_value()),
+          c2_(tex2->constant_value()) {}
     T evaluate(const TextureEvalContext &ctx) const override {
-        float w = map2d_ ? checker_weight_2d(map2d_->map(ctx)) : checker_weight_3d(*map3d_, ctx);
+        // The common checkerboard (uv mapping, two constant colours) makes no virtual call.
+        float w = uv_       ? checker_weight_2d(uv_->UvMapping::map(ctx))
+                  : map2d_ ? checker_weight_2d(map2d_->map(ctx))
+                           : checker_weight_3d(*map3d_, ctx);
         T t0(0.f), t1(0.f);
-        if (w != 1) t0 = tex1_->evaluate(ctx);
-        if (w != 0) t1 = tex2_->evaluate(ctx);
+        if (w != 1) t0 = c1_ ? *c1_ : tex1_->evaluate(ctx);
+        if (w != 0) t1 = c2_ ? *c2_ : tex2_->evaluate(ctx);
         return (1 - w) * t0 + w * t1;
     }
     std::string describe() const override {
@@ -266,6 +271,8 @@ class CheckerboardTexture final : public TexBase<T>::type {
     std::unique_ptr<Mapping2D> map2d_;
     std::optional<Transform> map3d_;  ///< texture_from_render for the 3D variant
     TexPtr<T> tex1_, tex2_;
+    const UvMapping *uv_;        ///< map2d_ when it is a uv mapping (called without dispatch)
+    std::optional<T> c1_, c2_;  ///< tex1_, tex2_'s values when constant
 };
 
 template <typename T>

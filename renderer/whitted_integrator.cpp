@@ -244,11 +244,8 @@ Ray WhittedIntegrator::camera_ray(const CameraSample &cs) const {
 Vec3f WhittedIntegrator::viewer_direction(Vec3f p) const {
     if (orthographic_)
         return -scene_.camera->forward();
-    // The camera's origin, read from its (affine) placement: cheaper than position()'s
-    // projective transform, and the same for evaluate() and shade().
-    const Mat4 &m = scene_.camera->world_from_camera().matrix();
-    Vec3f eye{float(m.m[0][3]), float(m.m[1][3]), float(m.m[2][3])};
-    return normalize(eye - p);
+    // The camera's origin (cached by the camera): the same for evaluate() and shade().
+    return normalize(scene_.camera->position() - p);
 }
 
 Rgb WhittedIntegrator::environment(Vec3f dir) const {

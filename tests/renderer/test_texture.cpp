@@ -178,6 +178,35 @@ TEST_CASE("checkerboard 2D: cells, uv mapping, footprint filtering") {
     CHECK(near_edge < 1.f);
 }
 
+TEST_CASE("checkerboard 2D: textured cells and a planar mapping") {
+    // The constant-colour, uv-mapped checkerboard skips the virtual calls; these take the
+    // general path: a cell that is itself a texture, and a mapping other than uv.
+    std::vector<TextureDesc> d = {
+        desc("fine", "float", "checkerboard",
+             {num("float", "uscale", {4}), num("float", "vscale", {4})}),
+        desc("nested", "float", "checkerboard",
+             {str("texture", "tex1", "fine"), num("float", "tex2", {0.25})}),
+        desc("pl", "float", "checkerboard",
+             {str("string", "mapping", "planar"), num("vector3", "v1", {1, 0, 0}),
+              num("vector3", "v2", {0, 1, 0}), num("float", "tex1", {0.75}),
+              num("float", "tex2", {0.125})}),
+    };
+    TextureSet set(d);
+    const FloatTexture *n = set.get_float("nested");
+    // Cell (0, 0) of the outer board shows "fine": s = 4u, t = 4v.
+    CHECK(n->evaluate(at_uv(0.1f, 0.1f)) == 1.f);   // fine cell (0, 0)
+    CHECK(n->evaluate(at_uv(0.3f, 0.1f)) == 0.f);   // fine cell (1, 0)
+    CHECK(n->evaluate(at_uv(0.3f, 0.3f)) == 1.f);   // fine cell (1, 1)
+    CHECK(n->evaluate(at_uv(1.1f, 0.1f)) == 0.25f); // outer cell (1, 0): the constant
+    // Planar: s = x, t = y of the point; uv is ignored.
+    const FloatTexture *pl = set.get_float("pl");
+    TextureEvalContext c = at_p({0.5f, 0.5f, 3.f});
+    c.uv = {1.5f, 0.5f};
+    CHECK(pl->evaluate(c) == 0.75f);
+    CHECK(pl->evaluate(at_p({1.5f, 0.5f, 0.f})) == 0.125f);
+    CHECK(pl->evaluate(at_p({1.5f, -0.5f, 0.f})) == 0.75f);
+}
+
 TEST_CASE("checkerboard 3D uses the texture transform") {
     std::vector<TextureDesc> d = {
         desc("c3", "float", "checkerboard", {num("integer", "dimension", {3})},
