@@ -390,6 +390,7 @@ class KimSampler final : public PixelSampler {
           ss_(uint32_t(p.get_int("ss"))),
           postcorrect_(p.get_int("postcorrect")),
           pc_shadow_(p.get_bool("pc-shadow")),
+          pc_lines_(p.get_bool("pc-lines")),
           t_pos_(float(p.get("t-pos"))),
           scene_size_(float(p.get("scene-size"))) {
         th_.norm = float(p.get("t-norm"));
@@ -467,12 +468,15 @@ class KimSampler final : public PixelSampler {
         }
         for (size_t b = 0; b < blocks; ++b)
             block_seed_[b].store(0, std::memory_order_relaxed);
-        if (line_flags_size_ < std::max(lw_, lh_)) {
-            line_flags_size_ = std::max(lw_, lh_);
-            line_flags_ = std::make_unique<std::atomic<uint32_t>[]>(line_flags_size_);
+        // One bit per segment (block) of the longest line, for as many lines.
+        cross_words_ = ((std::max(lw_, lh_) + block_mask_) >> block_shift_) / 64 + 1;
+        const size_t flag_words = size_t(std::max(lw_, lh_)) * cross_words_;
+        if (line_flags_size_ != flag_words) {
+            line_flags_size_ = flag_words;
+            line_flags_ = std::make_unique<std::atomic<uint64_t>[]>(flag_words);
         }
-        for (uint32_t i = 0; i < line_flags_size_; ++i)
-            line_flags_[i].store(kNoCrossing, std::memory_order_relaxed);
+        for (size_t i = 0; i < line_flags_size_; ++i)
+            line_flags_[i].store(0, std::memory_order_relaxed);
         crossed_.store(false, std::memory_order_relaxed);
         th_.pos = t_pos_ * scene_size_;
         box_lo_ = Vec3f(kInfinity, kInfinity, kInfinity);
@@ -496,8 +500,8 @@ class KimSampler final : public PixelSampler {
             return crossed_.load(std::memory_order_relaxed) ? (st.horizontal ? lh_ : lw_) : 0;
         if (st.kind == StageDesc::Kind::Resolve)
             return height_;
-        if (st.kind == StageDesc::Kind::Scan)  // one job per block that holds a seed
-            return uint32_t(scan_blocks_.size());
+        if (st.kind == StageDesc::Kind::Scan)  // one job per block that holds a seed, or line
+            return pc_lines_ ? (st.horizontal ? lh_ : lw_) : uint32_t(scan_blocks_.size());
         return kTileJobs;
     }
     std::string stage_name(int stage) const override { return stages_[size_t(stage)].name; }
@@ -514,7 +518,15 @@ class KimSampler final : public PixelSampler {
             case StageDesc::Kind::Columns:
                 adaptive_tile(st, x0, y0, x1, y1, source);
                 break;
-            case StageDesc::Kind::Scan: {  // job k: the k-th block with a seed
+            case StageDesc::Kind::Scan: {  // job k: the k-th block with a seed, or line k
+                if (pc_lines_) {
+                    const uint32_t l = tile.index;
+                    if (st.horizontal)
+                        scan_tile(st, 0, l, lw_, l + 1, source);
+                    else
+                        scan_tile(st, l, 0, l + 1, lh_, source);
+                    break;
+                }
                 const uint32_t b = scan_blocks_[tile.index];
                 const uint32_t bx = b % blocks_x_, by = b / blocks_x_;
                 const uint32_t side = block_mask_ + 1;
@@ -573,7 +585,7 @@ class KimSampler final : public PixelSampler {
 
     void end_stage(int stage, const SampleSource & /*source*/) override {
         const StageDesc &st = stages_[size_t(stage)];
-        if (size_t(stage) + 1 < stages_.size() &&
+        if (!pc_lines_ && size_t(stage) + 1 < stages_.size() &&
             stages_[size_t(stage) + 1].kind == StageDesc::Kind::Scan)
             list_seeded_blocks();
         if (st.kind == StageDesc::Kind::Cross)
@@ -911,7 +923,7 @@ class KimSampler final : public PixelSampler {
         auto point = [&](uint32_t along, uint32_t line) {
             return st.horizontal ? at(along, line) : at(line, along);
         };
-        // Called for the blocks that hold a seed only (list_seeded_blocks).
+        // Called for the blocks that hold a seed only (list_seeded_blocks), or whole lines.
         if (x1 <= x0 || y1 <= y0)
             return;
         Scratch &sc = scratch();
@@ -945,47 +957,61 @@ class KimSampler final : public PixelSampler {
         if ((st.step > 0 && exit + 1 >= limit) || (st.step < 0 && exit == 0))
             return;
         const uint32_t next = st.step > 0 ? exit + 1 : exit - 1;
-        // The Cross stage's walk starts at the line's earliest crossing (its step number k, see
-        // cross_lines): before it no candidate is left.
-        const uint32_t k_next = st.step > 0 ? next : limit - 1 - next;
+        // The Cross stage's walks start at the crossings (see cross_lines): one bit per segment
+        // of the line, that of `next`.
+        const uint32_t seg = next >> block_shift_;
+        const uint64_t bit = uint64_t(1) << (seg & 63);
         for (uint32_t l = l0; l < l1; ++l)
             if (candidate(point(next, l), point(exit, l))) {
                 crossed_.store(true, std::memory_order_relaxed);
-                uint32_t k = line_flags_[l].load(std::memory_order_relaxed);
-                while (k_next < k && !line_flags_[l].compare_exchange_weak(
-                                         k, k_next, std::memory_order_relaxed)) {
-                }
+                line_flags_[size_t(l) * cross_words_ + (seg >> 6)].fetch_or(
+                    bit, std::memory_order_relaxed);
             }
     }
 
-    /// Lines [l0, l1) of the Cross stage after a scan: re-runs the scan over every flagged line
-    /// from its earliest crossing on, which continues the chains that crossed block borders
-    /// (everything inside the blocks is already done, so only those continuations trace). Same
-    /// result as one serial scan per line: up to the first crossing, every candidate was a
-    /// block's own and has been traced (a candidate whose predecessor lies in the previous block
-    /// is exactly a crossing). A line is one job's alone, and a point is on one line of the
-    /// scan's direction, so jobs write disjoint points.
+    /// Lines [l0, l1) of the Cross stage after a scan: continues the chains that crossed block
+    /// borders. From each crossing of a line, in scan order, the scan re-runs while it finds
+    /// candidates (one ray each). Same result as one serial scan per line: the block scans have
+    /// traced every candidate whose predecessor lies in the same segment; after them a
+    /// candidate can follow only a crossing (a candidate whose predecessor is the previous
+    /// segment's last point, flagged by that segment's scan), or a point this walk has just
+    /// traced and changed, which the walk reaches next. So a walk that meets a point that is
+    /// not a candidate can skip to the next crossing it has not passed. A line is one job's
+    /// alone, and a point is on one line of the scan's direction, so jobs write disjoint points.
     void cross_lines(const StageDesc &st, uint32_t l0, uint32_t l1, const SampleSource &source) {
         const uint32_t len = st.horizontal ? lw_ : lh_;
+        const uint32_t side = block_mask_ + 1;
         Sample s;
         for (uint32_t l = l0; l < l1; ++l) {
-            const uint32_t k_first = line_flags_[l].load(std::memory_order_relaxed);
-            if (k_first == kNoCrossing)
-                continue;
-            line_flags_[l].store(kNoCrossing, std::memory_order_relaxed);
-            for (uint32_t k = std::max(k_first, 1u); k < len; ++k) {
-                const uint32_t cur = st.step > 0 ? k : len - 1 - k;
-                const uint32_t prev = st.step > 0 ? cur - 1 : cur + 1;
-                const uint32_t x = st.horizontal ? cur : l, y = st.horizontal ? l : cur;
-                const size_t ic = at(x, y);
-                if (!candidate(ic, st.horizontal ? at(prev, l) : at(l, prev)))
-                    continue;
-                const Ident old{pts_[ic].oid, pts_[ic].shadow};
-                s = source.evaluate(camera_sample(x, y));
-                shadow_.add(std::span<const Sample>(&s, 1));
-                Counts counts;
-                apply_correction(x, y, old, s, source, counts);
-                add_counts(counts);
+            std::atomic<uint64_t> *flags = &line_flags_[size_t(l) * cross_words_];
+            uint32_t done = 1;  // the walks have passed the steps below this one
+            for (uint32_t i = 0; i < cross_words_; ++i) {
+                // The crossed segments in scan order.
+                const uint32_t w = st.step > 0 ? i : cross_words_ - 1 - i;
+                uint64_t bits = flags[w].exchange(0, std::memory_order_relaxed);
+                while (bits) {
+                    const int b = st.step > 0 ? __builtin_ctzll(bits) : 63 - __builtin_clzll(bits);
+                    bits &= ~(uint64_t(1) << b);
+                    const uint32_t seg = w * 64 + uint32_t(b);
+                    // The segment's first point in scan order, as a step number.
+                    const uint32_t start =
+                        st.step > 0 ? seg * side : len - std::min(len, (seg + 1) * side);
+                    for (uint32_t k = std::max(start, done); k < len; ++k) {
+                        done = k + 1;
+                        const uint32_t cur = st.step > 0 ? k : len - 1 - k;
+                        const uint32_t prev = st.step > 0 ? cur - 1 : cur + 1;
+                        const uint32_t x = st.horizontal ? cur : l, y = st.horizontal ? l : cur;
+                        const size_t ic = at(x, y);
+                        if (!candidate(ic, st.horizontal ? at(prev, l) : at(l, prev)))
+                            break;
+                        const Ident old{pts_[ic].oid, pts_[ic].shadow};
+                        s = source.evaluate(camera_sample(x, y));
+                        shadow_.add(std::span<const Sample>(&s, 1));
+                        Counts counts;
+                        apply_correction(x, y, old, s, source, counts);
+                        add_counts(counts);
+                    }
+                }
             }
         }
     }
@@ -1061,6 +1087,7 @@ class KimSampler final : public PixelSampler {
     uint32_t block_, ss_;
     int postcorrect_;
     bool pc_shadow_;
+    bool pc_lines_;  ///< a scan's jobs are whole image lines (the paper's), not blocks
     float t_pos_, scene_size_;
     Thresholds th_;
     std::vector<StageDesc> stages_;
@@ -1090,11 +1117,12 @@ class KimSampler final : public PixelSampler {
     bool box_any_ = false;
 
     // Post-correction: lines (rows or columns) whose chains cross a tile border.
-    // Per line: the step number k (cross_lines) of its earliest crossing, kNoCrossing if none.
-    static constexpr uint32_t kNoCrossing = ~0u;
-    std::unique_ptr<std::atomic<uint32_t>[]> line_flags_;
+    // Per line, cross_words_ words: bit s set when a chain of the current scan crosses into
+    // segment (block) s of the line (scan_tile sets it, cross_lines clears it).
+    std::unique_ptr<std::atomic<uint64_t>[]> line_flags_;
+    size_t line_flags_size_ = 0;
+    uint32_t cross_words_ = 1;
     std::atomic<bool> crossed_{false};  ///< some line was flagged in the current scan
-    uint32_t line_flags_size_ = 0;
     // Per block of at(): 1 when it holds a seed (kTracedA or kCorrected) this frame, so that a
     // scan skips the tiles without one without reading their points.
     std::unique_ptr<std::atomic<uint8_t>[]> block_seed_;
@@ -1126,6 +1154,9 @@ PluginInfo kim_plugin_info() {
         {"postcorrect", 4, 0, 4, true,
          "post-correction scans: 0 off, 2 (left-right, top-bottom), 4 (all four directions)"},
         {"pc-shadow", 1, 0, 1, true, "post-correction also looks for missing shadows (SHDBIT)"},
+        {"pc-lines", 0, 0, 1, true,
+         "1: each scan runs one job per image line, serially along it (the paper's threads; a "
+         "reference), 0: one per 8x8-pixel block that holds a seed, chains across blocks after"},
         {"scene-size", 0, 0, 1e30, false,
          "longest side of the scene for t-pos (0: measured from the base pixels' hits)"},
     };

@@ -593,29 +593,41 @@ TEST_CASE("kim: supersampling runs the undersampling on the ss x ss lattice") {
 }
 
 
-TEST_CASE("kim: post-correction across tile borders equals one serial scan per line") {
-    // One 64-pixel tile holds the whole image: every scan runs inside it, serially along each
-    // line. With 8x8 tiles the chains that cross tile borders continue in end_stage; the frame
-    // must be the same.
-    for (const char *params : {"scene-size=300", "scene-size=300,block=4,ss=2"}) {
+TEST_CASE("kim: post-correction across block borders equals one serial scan per line") {
+    // pc-lines=1 scans every image line in one job, serially along it (the paper's threads):
+    // the reference. By default each 8x8-pixel block with a seed scans its own segments and the
+    // chains that cross block borders continue in the -cross stages; the frame must be the same,
+    // for any tile size and thread count.
+    for (const char *params : {"scene-size=300", "scene-size=300,block=4,ss=2",
+                               "scene-size=300,postcorrect=2,pc-shadow=0"}) {
         CAPTURE(params);
         auto src = test::busy_attribute_scene();
-        FrameResult one_tile = render_kim(*src, params, 1, 64);
-        FrameResult tiles = render_kim(*src, params, 3, 8);
-        check_same_frame(one_tile, tiles);
+        FrameResult serial = render_kim(*src, std::string(params) + ",pc-lines=1", 1);
+        check_same_frame(serial, render_kim(*src, params, 3, 8));
+        check_same_frame(serial, render_kim(*src, params, 2, 64));
+        check_same_frame(serial, render_kim(*src, std::string(params) + ",pc-lines=1", 3, 8));
     }
-    // The line scenes of the post-correction test, whose chains cross three tile borders.
-    SyntheticAttributeSource src(32, 32);
-    AttrShape line;
-    line.kind = AttrShape::Kind::Line;
-    line.nx = 1, line.ny = 0, line.d = 11.5f, line.width = 1;
-    src.shapes.push_back(line);
-    AttrShape half;
-    half.kind = AttrShape::Kind::HalfPlane;
-    half.nx = 0, half.ny = -1, half.d = -24;
-    src.shapes.push_back(half);
-    check_same_frame(render_kim(src, "scene-size=1000", 1, 64),
-                     render_kim(src, "scene-size=1000", 2, 8));
+    // The line scenes of the post-correction test, whose chains cross three block borders; and
+    // two lines close together, so that one image line holds several crossings and walks.
+    for (float gap : {0.f, 5.f}) {
+        CAPTURE(gap);
+        SyntheticAttributeSource src(32, 32);
+        AttrShape line;
+        line.kind = AttrShape::Kind::Line;
+        line.nx = 1, line.ny = 0, line.d = 11.5f, line.width = 1;
+        src.shapes.push_back(line);
+        if (gap > 0) {
+            AttrShape other = line;
+            other.nx = 0.8f, other.ny = 0.6f, other.d = 11.5f + gap;
+            src.shapes.push_back(other);
+        }
+        AttrShape half;
+        half.kind = AttrShape::Kind::HalfPlane;
+        half.nx = 0, half.ny = -1, half.d = -24;
+        src.shapes.push_back(half);
+        check_same_frame(render_kim(src, "scene-size=1000,pc-lines=1", 1),
+                         render_kim(src, "scene-size=1000", 2, 8));
+    }
 }
 
 TEST_CASE("kim: frames are bit-identical for 1 and 3 threads") {
