@@ -86,7 +86,8 @@
 //    screen space, which shifts the edges of a texture on a receding plane by up to a pixel;
 //    measured on examples/realtime/thin-shadows at 1024^2: 31.1 dB against fixed 1 linear);
 //    NORM likewise, then renormalised (kept as is when both normals are equal, so a plane
-//    interpolates exactly); OID and SHDBIT copied (G1, SH passed). The secondary hit is not interpolated (shade() does not read it).
+//    interpolates exactly); OID and SHDBIT copied (G1, SH passed). The secondary hit is not
+//    interpolated (shade() does not read it).
 //  - Post-correction on blocks (the paper runs one GPU thread per image line): each scan is a
 //    parallel stage in which every 8x8-pixel block that holds a seed (a ray-traced adaptive or
 //    corrected point; no other block can hold a candidate) scans its own line segments (lines
@@ -94,11 +95,12 @@
 //    evaluate_batch); where a segment ends on a ray-traced adaptive pixel whose neighbour in the
 //    next block is a candidate, the line is flagged, and a second stage (its jobs: whole lines,
 //    split by the job's place in the work list) re-runs the scan over the flagged lines,
-//    continuing those chains across block borders with single rays. The result is exactly that of a serial scan of every image
-//    line, for any thread count. A candidate's traced result is
-//    kept even when its OID/SHDBIT did not change (the ray was paid for and is exact), but only
-//    changed pixels propagate, as in the paper. B pixels are not revisited (the paper revisits
-//    adaptive pixels only; a B pixel's interpolated neighbours always share its OID).
+//    continuing those chains across block borders with single rays. The result is exactly that
+//    of a serial scan of every image line (pc-lines=1 runs that, one job per line: the test's
+//    reference), for any thread count. A candidate's traced result is kept even when its
+//    OID/SHDBIT did not change (the ray was paid for and is exact), but only changed pixels
+//    propagate, as in the paper. B pixels are not revisited (the paper revisits adaptive pixels
+//    only; a B pixel's interpolated neighbours always share its OID).
 //  - Sec. 5 traces a pixel in full when any check fails (no partial re-use, e.g. of geometry
 //    with fresh shadow rays): kept, since SampleSource has no "shadow rays only" call anyway.
 //
