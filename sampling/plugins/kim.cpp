@@ -524,15 +524,15 @@ class KimSampler final : public PixelSampler {
                 if (pc_lines_) {
                     const uint32_t l = tile.index;
                     if (st.horizontal)
-                        scan_tile(st, 0, l, lw_, l + 1, source);
+                        scan_rect(st, 0, l, lw_, l + 1, source);
                     else
-                        scan_tile(st, l, 0, l + 1, lh_, source);
+                        scan_rect(st, l, 0, l + 1, lh_, source);
                     break;
                 }
                 const uint32_t b = scan_blocks_[tile.index];
                 const uint32_t bx = b % blocks_x_, by = b / blocks_x_;
                 const uint32_t side = block_mask_ + 1;
-                scan_tile(st, bx * side, by * side, std::min(lw_, (bx + 1) * side),
+                scan_rect(st, bx * side, by * side, std::min(lw_, (bx + 1) * side),
                           std::min(lh_, (by + 1) * side), source);
                 break;
             }
@@ -917,7 +917,7 @@ class KimSampler final : public PixelSampler {
 
     /// One scan over the line segments of the lattice rectangle [x0, x1) x [y0, y1) (a block),
     /// all its lines in lock step so that the candidates of one step are traced as one batch.
-    void scan_tile(const StageDesc &st, uint32_t x0, uint32_t y0, uint32_t x1, uint32_t y1,
+    void scan_rect(const StageDesc &st, uint32_t x0, uint32_t y0, uint32_t x1, uint32_t y1,
                    const SampleSource &source) {
         // Along: the scan axis; across: the lines.
         const uint32_t a0 = st.horizontal ? x0 : y0, a1 = st.horizontal ? x1 : y1;
@@ -1120,7 +1120,7 @@ class KimSampler final : public PixelSampler {
 
     // Post-correction: lines (rows or columns) whose chains cross a tile border.
     // Per line, cross_words_ words: bit s set when a chain of the current scan crosses into
-    // segment (block) s of the line (scan_tile sets it, cross_lines clears it).
+    // segment (block) s of the line (scan_rect sets it, cross_lines clears it).
     std::unique_ptr<std::atomic<uint64_t>[]> line_flags_;
     size_t line_flags_size_ = 0;
     uint32_t cross_words_ = 1;
