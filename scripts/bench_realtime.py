@@ -5,15 +5,17 @@ For each scene: a ground truth of 256 stratified samples per pixel (`fixed:spp=2
 then every plugin and fixed 1, 4, 8, 9, 16, each rendered for --frames frames with the Whitted
 integrator at the same resolution, side by side in one run. Reports PSNR against the ground
 truth (on the display-referred 8-bit PNGs, as the papers measure it; peak 1), rays per pixel,
-median time per frame, and the papers' targets as ratios:
+median time per frame, and the papers' targets as ratios with PASS / FAIL:
 
   jin      >= 2x faster than fixed 9 at a PSNR no lower
   kim      >= 1.5x faster than fixed 1, PSNR >= 40 dB against fixed 1 (pixel centres,
            fixed:spp=1,jitter=0), <= 35 % of pixels traced
-  fliptri  PSNR of fixed 8 or better at <= 2x the time of fixed 1 (also shown: extra=16, and
-           extra=9 with share_weights=1)
-  suffern  PSNR no lower than fixed 4 with <= 35 % of its rays (also shown for two settings of
-           its display=1 and level2-factor options)
+  fliptri  PSNR of fixed 8 or better at <= 2x the time of fixed 1
+  suffern  PSNR no lower than fixed 4 with <= 35 % of its rays
+
+Each target is checked on the plugin's defaults (the papers') and on one target configuration
+per plugin, the same for every scene (TARGET_CONFIG below says why each differs from the
+defaults). The verdicts go to targets.csv beside realtime.csv.
 
 Usage: scripts/bench_realtime.py [--tessera build/tessera] [--resolution 1024] [--frames 9]
        [--repeats R] [--out bench-realtime] [--threads N] [--quick]
@@ -43,9 +45,6 @@ PLUGINS = ["jin", "kim", "fliptri", "flipquad", "suffern"]
 # jin with the stricter texture-existence thresholds the paper uses for texture-heavy scenes
 # (its Sec. 5: Fairy Forest needed stricter thresholds than the defaults).
 JIN_TEXTURED = "jin:tau_pte=0.1,tau_ste=0.1"
-# fliptri with 16 RGSS extra samples per active pixel (the count the paper uses for FLIPQUAD)
-# instead of its default 4: what it takes to reach fixed 8's PSNR on the busier scenes.
-FLIPTRI_16 = "fliptri:extra=16"
 # fliptri with 9 extra samples, its pattern samples weighted by their share of the pixel in a
 # supersampled pixel (share_weights=1) instead of equally.
 FLIPTRI_9S = "fliptri:extra=9,share_weights=1"
@@ -55,6 +54,58 @@ FLIPTRI_9S = "fliptri:extra=9,share_weights=1"
 SUFFERN_DISPLAY = "suffern:display=1,level2-factor=4"
 SUFFERN_DISPLAY_075 = "suffern:display=1,level2-factor=4,tolerance=0.075"
 FIXED = [1, 4, 8, 9, 16]
+
+
+# The configuration each target is judged on, beside the plugin's defaults (the papers'):
+#   jin: the paper sets its thresholds per scene (Sec. 5: "we adjusted the thresholds ... so as
+#     to achieve PSNR values that fell between those of densities of 9 and 16"); at the default
+#     tau_alpha = 0.6 its own textured scene (Fairy Forest) scores 38.61 dB against fixed 9's
+#     43.88 (Table 2) and needs tau_alpha = 0.1. Here only the two texture thresholds go to 0.1.
+#   fliptri: the paper's Table 1 is not in the text; its "8X quality for 2X time" is judged on
+#     9 RGSS extra samples with the pattern samples weighted by their share of the pixel.
+#   suffern: the source's tolerance is "arbitrary" (it shows 0.05 to 0.001 per scene); judged
+#     on displayed colours, the quadrant bound and tolerance 0.075.
+# One configuration per plugin for every scene: none is tuned to a single scene.
+TARGET_CONFIG = {"jin": JIN_TEXTURED, "kim": "kim", "fliptri": FLIPTRI_9S,
+                 "suffern": SUFFERN_DISPLAY_075}
+
+
+def target_runs():
+    """(plugin, label, sampler spec) for every target check: defaults, then the target config."""
+    out = []
+    for plugin, spec in TARGET_CONFIG.items():
+        out.append((plugin, "defaults", plugin))
+        if spec != plugin:
+            out.append((plugin, "target", spec))
+    return out
+
+
+def check(plugin, spec, res):
+    """The paper's target for `plugin`, evaluated on the run of `spec`: (figures, passed)."""
+    t = lambda s: res[s]["frame_ms_median"]
+    r = res[spec]
+    if plugin == "jin":
+        f9 = res["fixed:spp=9"]
+        speed, dpsnr = t("fixed:spp=9") / t(spec), r["psnr"] - f9["psnr"]
+        return (f"speed-up vs fixed 9 {speed:5.2f}x (>= 2), PSNR - fixed 9 {dpsnr:+6.2f} dB"
+                " (>= 0)", speed >= 2 and dpsnr >= 0)
+    if plugin == "kim":
+        speed = t("fixed:spp=1,jitter=0") / t(spec)
+        traced = r["active_fraction"]
+        return (f"speed-up vs fixed 1 {speed:5.2f}x (>= 1.5), PSNR vs fixed 1 (centres) "
+                f"{r['psnr_vs_fixed1']:6.2f} dB (>= 40), traced {100 * traced:.1f}% (<= 35)",
+                speed >= 1.5 and r["psnr_vs_fixed1"] >= 40 and traced <= 0.35)
+    if plugin == "fliptri":
+        f8 = res["fixed:spp=8"]
+        ratio, dpsnr = t(spec) / t("fixed:spp=1"), r["psnr"] - f8["psnr"]
+        return (f"time / fixed 1 {ratio:5.2f}x (<= 2), PSNR - fixed 8 {dpsnr:+6.2f} dB (>= 0)",
+                ratio <= 2 and dpsnr >= 0)
+    if plugin == "suffern":
+        f4 = res["fixed:spp=4"]
+        ratio, dpsnr = r["rays_per_pixel"] / f4["rays_per_pixel"], r["psnr"] - f4["psnr"]
+        return (f"rays / fixed 4 {ratio:6.3f} (<= 0.35), PSNR - fixed 4 {dpsnr:+6.2f} dB (>= 0)",
+                ratio <= 0.35 and dpsnr >= 0)
+    raise ValueError(plugin)
 
 
 def scenes():
@@ -106,6 +157,7 @@ def main():
         args.resolution, args.frames, args.gt_spp = 256, 2, 64
     os.makedirs(args.out, exist_ok=True)
     rows = []
+    verdicts = []
     for name, scene in scenes():
         sdir = os.path.join(args.out, name)
         os.makedirs(sdir, exist_ok=True)
@@ -119,7 +171,7 @@ def main():
         # against ray tracing each pixel at its centre; a jittered fixed 1 differs from any
         # centre-sampled image wherever a texture is finer than a pixel).
         specs = ([f"fixed:spp={k}" for k in FIXED] + ["fixed:spp=1,jitter=0"] + PLUGINS
-                 + [JIN_TEXTURED, FLIPTRI_16, FLIPTRI_9S, SUFFERN_DISPLAY, SUFFERN_DISPLAY_075])
+                 + [JIN_TEXTURED, FLIPTRI_9S, SUFFERN_DISPLAY, SUFFERN_DISPLAY_075])
         res = {}
         # suffern's target is rays and PSNR (deterministic): its variants need no repeats.
         untimed = {f"fixed:spp={k}" for k in (4, 8, 16)} | {SUFFERN_DISPLAY, SUFFERN_DISPLAY_075}
@@ -159,31 +211,16 @@ def main():
                     runs = res[spec]["frame_ms_runs"]
                     print(f"  {spec:28s} {min(runs):9.1f}   "
                           + " ".join(f"{v:.1f}" for v in runs))
-        f1, f4, f8, f9 = (res[f"fixed:spp={k}"] for k in (1, 4, 8, 9))
         f1c = res["fixed:spp=1,jitter=0"]
         kim_vs_f1 = psnr(args.tessera, res["kim"]["png"], f1c["png"])
-        t = lambda s: res[s]["frame_ms_median"]
-        print(f"\n{name}: targets (ratios side by side from this run)")
-        print(f"  jin     speed-up vs fixed 9   {t('fixed:spp=9') / t('jin'):5.2f}x (>= 2)   "
-              f"PSNR jin - fixed9 {res['jin']['psnr'] - f9['psnr']:+6.2f} dB (>= 0)")
-        print(f"  jin tex speed-up vs fixed 9   {t('fixed:spp=9') / t(JIN_TEXTURED):5.2f}x (>= 2)   "
-              f"PSNR jin - fixed9 {res[JIN_TEXTURED]['psnr'] - f9['psnr']:+6.2f} dB (>= 0)")
-        print(f"  kim     speed-up vs fixed 1   {t('fixed:spp=1,jitter=0') / t('kim'):5.2f}x (>= 1.5) "
-              f"PSNR vs fixed 1 (centres) {kim_vs_f1:6.2f} dB (>= 40)  traced "
-              f"{100 * res['kim']['active_fraction']:.1f}% (<= 35)")
-        print(f"  fliptri time / fixed 1        {t('fliptri') / t('fixed:spp=1'):5.2f}x (<= 2)   "
-              f"PSNR fliptri - fixed8 {res['fliptri']['psnr'] - f8['psnr']:+6.2f} dB (>= 0)")
-        print(f"  fliptri16 time / fixed 1      {t(FLIPTRI_16) / t('fixed:spp=1'):5.2f}x (<= 2)   "
-              f"PSNR fliptri - fixed8 {res[FLIPTRI_16]['psnr'] - f8['psnr']:+6.2f} dB (>= 0)")
-        print(f"  fliptri9 sh time / fixed 1    {t(FLIPTRI_9S) / t('fixed:spp=1'):5.2f}x (<= 2)   "
-              f"PSNR fliptri - fixed8 {res[FLIPTRI_9S]['psnr'] - f8['psnr']:+6.2f} dB (>= 0)")
-        for label, spec in (("suffern", "suffern"), ("suffern display", SUFFERN_DISPLAY),
-                            ("suffern disp .075", SUFFERN_DISPLAY_075)):
-            print(f"  {label:17s} rays / fixed 4 "
-                  f"{res[spec]['rays_per_pixel'] / f4['rays_per_pixel']:6.3f} (<= 0.35) "
-                  f"PSNR - fixed4 {res[spec]['psnr'] - f4['psnr']:+6.2f} dB (>= 0)")
-        print()
         res["kim"]["psnr_vs_fixed1"] = kim_vs_f1
+        print(f"\n{name}: targets (ratios side by side from this run)")
+        for plugin, label, spec in target_runs():
+            text, ok = check(plugin, spec, res)
+            verdicts.append({"scene": name, "plugin": plugin, "config": label, "sampler": spec,
+                             "pass": ok, "figures": text})
+            print(f"  {plugin:8s} {label:8s} {spec:50s} {text}  {'PASS' if ok else 'FAIL'}")
+        print()
     with open(os.path.join(args.out, "realtime.csv"), "w", newline="") as f:
         keys = ["scene", "sampler", "psnr", "rays_per_pixel", "samples_per_pixel",
                 "frame_ms_median", "frame_ms_p95", "frame_ms_runs", "active_fraction",
@@ -193,7 +230,20 @@ def main():
         w = csv.DictWriter(f, fieldnames=keys, extrasaction="ignore")
         w.writeheader()
         w.writerows(rows)
-    print(f"wrote {os.path.join(args.out, 'realtime.csv')}")
+    with open(os.path.join(args.out, "targets.csv"), "w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=["scene", "plugin", "config", "sampler", "pass",
+                                          "figures"])
+        w.writeheader()
+        w.writerows(verdicts)
+    print("targets (PASS / FAIL per scene):")
+    names = list(dict.fromkeys(v["scene"] for v in verdicts))
+    print(f"  {'plugin':8s} {'config':8s} {'sampler':50s} " + " ".join(f"{n:>16s}" for n in names))
+    for plugin, label, spec in target_runs():
+        marks = [next(("PASS" if v["pass"] else "FAIL") for v in verdicts
+                      if v["scene"] == n and v["sampler"] == spec and v["plugin"] == plugin)
+                 for n in names]
+        print(f"  {plugin:8s} {label:8s} {spec:50s} " + " ".join(f"{m:>16s}" for m in marks))
+    print(f"wrote {os.path.join(args.out, 'realtime.csv')} and targets.csv")
     return 0
 
 
