@@ -53,7 +53,10 @@ uint32_t parse_specializations(std::string_view list) {
 std::string specialization_names(uint32_t mask) {
     std::string s;
     for (const Named &n : kNames)
-        if (mask & n.bit) s += (s.empty() ? "" : ",") + std::string(n.name);
+        if (mask & n.bit) {
+            if (!s.empty()) s += ',';
+            s += n.name;
+        }
     return s.empty() ? "none" : s;
 }
 
