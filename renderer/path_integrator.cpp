@@ -1,5 +1,7 @@
 #include "renderer/path_integrator.h"
 
+#include <algorithm>
+#include <array>
 #include <cstdio>
 #include <type_traits>
 
@@ -78,8 +80,8 @@ std::string PathIntegrator::describe() const {
     return buf;
 }
 
-Sample PathIntegrator::evaluate(const CameraSample &cs) const {
-    sampling::SobolSampler sampler(seed_);
+CameraRay PathIntegrator::camera_ray(const CameraSample &cs,
+                                     sampling::SobolSampler &sampler) const {
     sampler.start_pixel_sample(cs.px, cs.py, cs.index);
     // Filter importance sampling: the film offset (fx, fy) in [0,1)^2 is warped through the
     // pixel filter; the sample stays in pixel (px, py) with weight 1.
@@ -92,8 +94,10 @@ Sample PathIntegrator::evaluate(const CameraSample &cs) const {
     else
         sampler.skip(2);
     // Only texture filtering reads the ray differentials.
-    CameraRay cray = scene_.camera->generate_ray(p_raster, u_lens, differentials_);
-    PathResult r = trace(cray, sampler);
+    return scene_.camera->generate_ray(p_raster, u_lens, differentials_);
+}
+
+Sample PathIntegrator::to_sample(const PathResult &r) const {
     Sample s;
     s.radiance = r.L * scene_.settings.image_scale;
     float m = s.radiance.max_value();
@@ -104,6 +108,36 @@ Sample PathIntegrator::evaluate(const CameraSample &cs) const {
     s.rays = r.rays;
     s.shadow_rays_avoided = r.shadow_rays_avoided;
     return s;
+}
+
+Sample PathIntegrator::evaluate(const CameraSample &cs) const {
+    sampling::SobolSampler sampler(seed_);
+    CameraRay cray = camera_ray(cs, sampler);
+    return to_sample(trace(cray, sampler));
+}
+
+void PathIntegrator::evaluate_batch(std::span<const CameraSample> samples,
+                                    std::span<Sample> out) const {
+    constexpr size_t kPacket = 8;
+    for (size_t base = 0; base < samples.size(); base += kPacket) {
+        const size_t n = std::min(kPacket, samples.size() - base);
+        if (n == 1) {
+            out[base] = evaluate(samples[base]);
+            continue;
+        }
+        std::array<sampling::SobolSampler, kPacket> samplers;
+        std::array<CameraRay, kPacket> crays;
+        std::array<Ray, kPacket> rays;
+        std::array<std::optional<SurfaceInteraction>, kPacket> hits;
+        for (size_t i = 0; i < n; ++i) {
+            samplers[i] = sampling::SobolSampler(seed_);
+            crays[i] = camera_ray(samples[base + i], samplers[i]);
+            rays[i] = crays[i].ray;
+        }
+        scene_.geometry->intersect8(rays.data(), int(n), hits.data());
+        for (size_t i = 0; i < n; ++i)
+            out[base + i] = to_sample(trace(crays[i], samplers[i], &hits[i]));
+    }
 }
 
 Rgb PathIntegrator::radiance(const Ray &ray, uint32_t px, uint32_t py, uint32_t index) const {
@@ -117,14 +151,16 @@ Rgb PathIntegrator::radiance(const Ray &ray, uint32_t px, uint32_t py, uint32_t 
 }
 
 PathIntegrator::PathResult PathIntegrator::trace(const CameraRay &cray,
-                                                 sampling::SobolSampler &sampler) const {
-    return lambertian_.empty() ? trace_impl<false>(cray, sampler)
-                               : trace_impl<true>(cray, sampler);
+                                                 sampling::SobolSampler &sampler,
+                                                 std::optional<SurfaceInteraction> *first) const {
+    return lambertian_.empty() ? trace_impl<false>(cray, sampler, first)
+                               : trace_impl<true>(cray, sampler, first);
 }
 
 template <bool kLambertian>
-PathIntegrator::PathResult PathIntegrator::trace_impl(const CameraRay &cray,
-                                                      sampling::SobolSampler &sampler) const {
+PathIntegrator::PathResult PathIntegrator::trace_impl(
+    const CameraRay &cray, sampling::SobolSampler &sampler,
+    std::optional<SurfaceInteraction> *first) const {
     PathResult res;
     const Scene &sc = scene_;
     Ray ray = cray.ray;
@@ -140,7 +176,11 @@ PathIntegrator::PathResult PathIntegrator::trace_impl(const CameraRay &cray,
     (void)any_non_specular;
 
     while (true) {
-        std::optional<SurfaceInteraction> hit = sc.geometry->intersect(ray);
+        // The camera ray's hit may come traced already (evaluate_batch's packets).
+        std::optional<SurfaceInteraction> traced =
+            first ? std::optional<SurfaceInteraction>() : sc.geometry->intersect(ray);
+        std::optional<SurfaceInteraction> &hit = first ? *first : traced;
+        first = nullptr;
         ++res.rays;
         if (!hit) {
             // Escaped: infinite lights, MIS-weighted against light sampling.

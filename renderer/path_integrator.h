@@ -8,6 +8,8 @@
 #pragma once
 
 #include <atomic>
+#include <optional>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -36,6 +38,10 @@ class PathIntegrator final : public SampleSource {
     uint32_t height() const override { return uint32_t(scene_.settings.height); }
     /// Thread-safe; a pure function of the camera sample and the seed.
     Sample evaluate(const CameraSample &cs) const override;
+    /// The same samples as evaluate(), their camera rays traced as 8-wide packets (a pixel's
+    /// consecutive samples are nearly coherent); the paths continue one by one.
+    void evaluate_batch(std::span<const CameraSample> samples,
+                        std::span<Sample> out) const override;
     std::string describe() const override;
     /// The Specialization bits in use (applicable to the scene and not disabled).
     uint32_t specializations() const { return spec_; }
@@ -50,10 +56,16 @@ class PathIntegrator final : public SampleSource {
         uint32_t rays = 0;
         uint32_t shadow_rays_avoided = 0;
     };
-    PathResult trace(const CameraRay &cray, sampling::SobolSampler &sampler) const;
+    /// The camera ray of `cs`; leaves `sampler` at the path's first dimension.
+    CameraRay camera_ray(const CameraSample &cs, sampling::SobolSampler &sampler) const;
+    Sample to_sample(const PathResult &r) const;
+    /// `first`, when given, is the camera ray's hit already traced (evaluate_batch).
+    PathResult trace(const CameraRay &cray, sampling::SobolSampler &sampler,
+                     std::optional<SurfaceInteraction> *first = nullptr) const;
     /// The path loop; kLambertian: every material is a constant Lambertian (lambertian_).
     template <bool kLambertian>
-    PathResult trace_impl(const CameraRay &cray, sampling::SobolSampler &sampler) const;
+    PathResult trace_impl(const CameraRay &cray, sampling::SobolSampler &sampler,
+                          std::optional<SurfaceInteraction> *first) const;
 
     const Scene &scene_;
     uint32_t seed_;

@@ -21,6 +21,7 @@
 #include <cstdio>
 #include <limits>
 #include <mutex>
+#include <span>
 #include <sstream>
 #include <stdexcept>
 
@@ -257,6 +258,9 @@ struct AdaptiveScheduler::RenderContext {
     }
 };
 
+/// Samples of one pixel per SampleSource::evaluate_batch call (one 8-wide ray packet).
+constexpr uint32_t kSampleBatch = 8;
+
 struct AdaptiveScheduler::WorkerState {
     uint64_t samples = 0, rays = 0, tiles_rendered = 0, tiles_skipped = 0, pixels_skipped = 0;
     uint64_t shadow_rays_avoided = 0;
@@ -265,6 +269,9 @@ struct AdaptiveScheduler::WorkerState {
     std::vector<sampling::PixelBounds> rects;
     std::array<uint8_t, kTilePixels> active{};
     std::array<uint32_t, kTilePixels> before{}, after{};
+    // One pixel's samples on their way through SampleSource::evaluate_batch.
+    std::array<CameraSample, kSampleBatch> batch_cs{};
+    std::array<Sample, kSampleBatch> batch_out{};
 
     void merge_into(RenderContext &ctx) const {
         std::lock_guard<std::mutex> lock(ctx.merge_mutex);
@@ -615,13 +622,22 @@ void AdaptiveScheduler::process_tile(size_t t, uint32_t pass, RenderContext &ctx
                 pixel_target = std::min(pixel_target, std::max(first, pixel_cap));
         }
         // The film's count is the pixel's next index: each pixel continues its own sequence.
-        for (uint32_t index = first; index < pixel_target; ++index) {
-            CameraSample cs = camera_sample(options_.seed, px, py, index);
-            Sample s = source_.evaluate(cs);
-            rays += s.rays;
-            shadow_avoided += s.shadow_rays_avoided;
-            ++samples;
-            film_.add_sample(px, py, index, s);
+        // A pixel's samples go to the source in batches (the path tracer traces their camera
+        // rays as one packet) and reach the film in index order.
+        for (uint32_t index = first; index < pixel_target;) {
+            const uint32_t m = std::min<uint32_t>(kSampleBatch, pixel_target - index);
+            for (uint32_t k = 0; k < m; ++k)
+                ws.batch_cs[k] = camera_sample(options_.seed, px, py, index + k);
+            source_.evaluate_batch(std::span<const CameraSample>(ws.batch_cs.data(), m),
+                                   std::span<Sample>(ws.batch_out.data(), m));
+            for (uint32_t k = 0; k < m; ++k) {
+                const Sample &s = ws.batch_out[k];
+                rays += s.rays;
+                shadow_avoided += s.shadow_rays_avoided;
+                film_.add_sample(px, py, index + k, s);
+            }
+            samples += m;
+            index += m;
         }
         ws.after[i] = std::max(first, pixel_target);
         if (adaptive_ && pixel_target > first) {
