@@ -1,6 +1,6 @@
 // Whole-render throughput next to the raw Embree ray rate of the same scene, in one run.
 //
-//   bench_throughput [--res N] [--spp N] [--threads N] [--reps N] SCENE...
+//   bench_throughput [--res N] [--spp N] [--threads N] [--reps N] [--packets] SCENE...
 //
 // For each scene: (1) renders it with the path tracer on the tile scheduler and reports Mrays/s
 // and samples/s; (2) traces the same number of incoherent rays with raw Embree calls
@@ -8,6 +8,8 @@
 // geometric normal with one shadow ray per bounce, nothing else) on the same threads; prints
 // both rates and their ratio. Also prints film bytes per pixel. Repeats are interleaved
 // (render, raw, render, raw, ...) and the best of each is reported, so machine noise hits both.
+// --packets also traces the raw rays as 8-wide packets (8 paths of a pixel in lockstep,
+// rtcIntersect8 / rtcOccluded8) and prints that rate next to the single-ray one.
 #include <embree3/rtcore.h>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -98,10 +100,113 @@ uint64_t raw_embree(const Scene &scene, int spp, int bounces, uint32_t threads) 
     return total.load();
 }
 
+/// raw_embree() with the paths of a pixel's consecutive samples traced 8 at a time in lockstep:
+/// every bounce's closest-hit rays as one rtcIntersect8, its shadow rays as one rtcOccluded8.
+uint64_t raw_embree_packets(const Scene &scene, int spp, int bounces, uint32_t threads) {
+    RTCScene rtc = scene.geometry->rtc_scene();
+    const int w = scene.settings.width, h = scene.settings.height;
+    Vec3f bmin = scene.geometry->bounds_min(), bmax = scene.geometry->bounds_max();
+    Vec3f light_target = (bmin + bmax) * 0.5f + Vec3f(0, 0.45f * (bmax.y - bmin.y), 0);
+    float eps = 1e-5f * length(bmax - bmin);
+    std::atomic<uint64_t> total{0};
+    tbb::task_arena arena(threads ? int(threads) : tbb::task_arena::automatic);
+    arena.execute([&] {
+        tbb::parallel_for(tbb::blocked_range<int>(0, h, 1), [&](const tbb::blocked_range<int> &r) {
+            uint64_t rays = 0;
+            RTCIntersectContext ctx;
+            rtcInitIntersectContext(&ctx);
+            for (int y = r.begin(); y < r.end(); ++y)
+                for (int x = 0; x < w; ++x)
+                    for (int s0 = 0; s0 < spp; s0 += 8) {
+                        const int n = std::min(8, spp - s0);
+                        sampling::SobolSampler smp[8];
+                        Vec3f o[8], d[8];
+                        alignas(32) int valid[8];
+                        for (int i = 0; i < 8; ++i) {
+                            valid[i] = i < n ? -1 : 0;
+                            if (i >= n) continue;
+                            smp[i] = sampling::SobolSampler(1);
+                            smp[i].start_pixel_sample(uint32_t(x), uint32_t(y), uint32_t(s0 + i));
+                            Vec2f u = smp[i].get_pixel_2d();
+                            CameraRay cr = scene.camera->generate_ray({x + u.x, y + u.y},
+                                                                      {0.5f, 0.5f}, false);
+                            o[i] = cr.ray.o;
+                            d[i] = cr.ray.d;
+                        }
+                        for (int b = 0; b < bounces; ++b) {
+                            alignas(32) RTCRayHit8 rh;
+                            int active = 0;
+                            for (int i = 0; i < 8; ++i) {
+                                rh.ray.org_x[i] = o[i].x; rh.ray.org_y[i] = o[i].y;
+                                rh.ray.org_z[i] = o[i].z;
+                                rh.ray.dir_x[i] = d[i].x; rh.ray.dir_y[i] = d[i].y;
+                                rh.ray.dir_z[i] = d[i].z;
+                                rh.ray.tnear[i] = 0.f;
+                                rh.ray.tfar[i] = kInfinity;
+                                rh.ray.mask[i] = 0xFFFFFFFFu;
+                                rh.ray.flags[i] = 0;
+                                rh.ray.time[i] = 0.f;
+                                rh.ray.id[i] = unsigned(i);
+                                rh.hit.geomID[i] = RTC_INVALID_GEOMETRY_ID;
+                                rh.hit.instID[0][i] = RTC_INVALID_GEOMETRY_ID;
+                                active += valid[i] != 0;
+                            }
+                            if (!active) break;
+                            rtcIntersect8(valid, rtc, &ctx, &rh);
+                            rays += uint64_t(active);
+                            alignas(32) RTCRay8 sr;
+                            Vec3f nrm[8];
+                            for (int i = 0; i < 8; ++i) {
+                                sr.tnear[i] = 0.f;
+                                sr.tfar[i] = 0.999f;
+                                sr.mask[i] = 0xFFFFFFFFu;
+                                sr.flags[i] = 0;
+                                sr.time[i] = 0.f;
+                                sr.id[i] = unsigned(i);
+                                if (!valid[i]) {
+                                    sr.org_x[i] = sr.org_y[i] = sr.org_z[i] = 0.f;
+                                    sr.dir_x[i] = sr.dir_y[i] = sr.dir_z[i] = 1.f;
+                                    continue;
+                                }
+                                if (rh.hit.geomID[i] == RTC_INVALID_GEOMETRY_ID) {
+                                    valid[i] = 0;
+                                    sr.org_x[i] = sr.org_y[i] = sr.org_z[i] = 0.f;
+                                    sr.dir_x[i] = sr.dir_y[i] = sr.dir_z[i] = 1.f;
+                                    continue;
+                                }
+                                Vec3f nn = normalize(
+                                    Vec3f(rh.hit.Ng_x[i], rh.hit.Ng_y[i], rh.hit.Ng_z[i]));
+                                if (dot(nn, d[i]) > 0) nn = -nn;
+                                nrm[i] = nn;
+                                o[i] = o[i] + d[i] * rh.ray.tfar[i] + nn * eps;
+                                Vec3f to = light_target - o[i];
+                                sr.org_x[i] = o[i].x; sr.org_y[i] = o[i].y; sr.org_z[i] = o[i].z;
+                                sr.dir_x[i] = to.x; sr.dir_y[i] = to.y; sr.dir_z[i] = to.z;
+                            }
+                            int shadows = 0;
+                            for (int i = 0; i < 8; ++i) shadows += valid[i] != 0;
+                            if (!shadows) break;
+                            rtcOccluded8(valid, rtc, &ctx, &sr);
+                            rays += uint64_t(shadows);
+                            for (int i = 0; i < 8; ++i) {
+                                if (!valid[i]) continue;
+                                Vec3f local =
+                                    sampling::square_to_cosine_hemisphere(smp[i].get_2d());
+                                d[i] = Frame::from_z(nrm[i]).to_world(local);
+                            }
+                        }
+                    }
+            total += rays;
+        });
+    });
+    return total.load();
+}
+
 }  // namespace
 
 int main(int argc, char **argv) {
     int res = 256, spp = 16, reps = 3;
+    bool packets = false;
     uint32_t threads = 0;
     std::vector<std::string> scenes;
     for (int i = 1; i < argc; ++i) {
@@ -111,10 +216,12 @@ int main(int argc, char **argv) {
         else if (a == "--spp") spp = next();
         else if (a == "--threads") threads = uint32_t(next());
         else if (a == "--reps") reps = next();
+        else if (a == "--packets") packets = true;
         else scenes.push_back(a);
     }
     if (scenes.empty()) {
-        std::fprintf(stderr, "usage: bench_throughput [--res N] [--spp N] [--threads N] SCENE...\n");
+        std::fprintf(stderr, "usage: bench_throughput [--res N] [--spp N] [--threads N] "
+                             "[--reps N] [--packets] SCENE...\n");
         return 2;
     }
     std::printf("%-28s %10s %12s %12s %12s %8s\n", "scene", "rays/smp", "Msamples/s",
@@ -124,7 +231,8 @@ int main(int argc, char **argv) {
         ov.width = ov.height = res;
         ov.spp = spp;
         auto scene = load_scene(path, ov);
-        double best_render = 1e30, best_raw = 1e30;
+        double best_render = 1e30, best_raw = 1e30, best_packet = 1e30;
+        uint64_t packet_rays = 0;
         uint64_t rays = 0, samples = 0, raw_rays = 0;
         for (int r = 0; r < reps; ++r) {
             sampling::Film film{uint32_t(res), uint32_t(res)};
@@ -136,6 +244,11 @@ int main(int argc, char **argv) {
             double t0 = now_s();
             raw_rays = raw_embree(*scene, spp, bounces, threads);
             best_raw = std::min(best_raw, now_s() - t0);
+            if (packets) {
+                t0 = now_s();
+                packet_rays = raw_embree_packets(*scene, spp, bounces, threads);
+                best_packet = std::min(best_packet, now_s() - t0);
+            }
         }
         double mrays = double(rays) / best_render * 1e-6;
         double raw_mrays = double(raw_rays) / best_raw * 1e-6;
@@ -143,6 +256,10 @@ int main(int argc, char **argv) {
         std::printf("%-28s %10.2f %12.3f %12.2f %12.2f %8.2f\n", name.c_str(),
                     double(rays) / double(samples), double(samples) / best_render * 1e-6, mrays,
                     raw_mrays, mrays / raw_mrays);
+        if (packets)
+            std::printf("%-28s raw 8-wide packets: %.2f Mrays/s (%.2fx single rays)\n", "",
+                        double(packet_rays) / best_packet * 1e-6,
+                        double(packet_rays) / best_packet * 1e-6 / raw_mrays);
     }
     std::printf("film: %zu bytes per pixel (no AOVs; %zu with all)\n",
                 sampling::Film::bytes_per_pixel_for({}),
