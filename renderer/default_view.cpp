@@ -2,6 +2,7 @@
 
 #include <filesystem>
 
+#include "renderer/gzip_io.h"
 #include "renderer/mesh_io.h"
 #include "renderer/obj_loader.h"
 
@@ -49,7 +50,8 @@ void add_default_view(SceneDesc &desc, Vec3f bmin, Vec3f bmax, bool has_emitters
         Param f;
         f.type = "string";
         f.name = "filename";
-        f.strings = {std::filesystem::path(desc.main_file).stem().string() + ".exr"};
+        f.strings = {std::filesystem::path(strip_gz_extension(desc.main_file)).stem().string() +
+                     ".exr"};
         f.loc = loc;
         desc.film.params.params.push_back(f);
     }

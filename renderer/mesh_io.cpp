@@ -11,6 +11,7 @@
 #include <sstream>
 #include <vector>
 
+#include "renderer/gzip_io.h"
 #include "renderer/limits.h"
 #include "renderer/scene_desc.h"
 
@@ -50,7 +51,7 @@ struct PlyElement {
 /// A small buffered reader for walking a PLY body without holding it in memory.
 class PlyWalker {
   public:
-    PlyWalker(std::ifstream &in, uint64_t remaining)
+    PlyWalker(std::istream &in, uint64_t remaining)
         : in_(in), remaining_(remaining), buf_(size_t(1) << 16) {}
     uint64_t remaining() const { return remaining_; }
     /// Reads n <= 8 bytes; false at the end of the file.
@@ -100,7 +101,7 @@ class PlyWalker {
         --remaining_;
         return *pos_++;
     }
-    std::ifstream &in_;
+    std::istream &in_;
     uint64_t remaining_;
     std::vector<uint8_t> buf_;
     uint8_t *pos_ = nullptr, *end_ = nullptr;
@@ -113,8 +114,7 @@ class PlyWalker {
 /// size and the mesh limits (limits.h), and the body is walked once -- streaming, without
 /// keeping anything -- to check that every list's count fits in the bytes (binary) or tokens
 /// (ASCII) that remain. After this, what assimp allocates is bounded by the file size.
-void check_ply_file(const std::string &path) {
-    std::ifstream in(path, std::ios::binary);
+void check_ply_stream(std::istream &in, uint64_t file_size, const std::string &path) {
     std::string line;
     // The file must start with the line "ply", as the specification (and pbrt-v4's rply)
     // says. assimp is more lenient -- it skips blank lines and looks at three bytes -- and then
@@ -217,9 +217,6 @@ void check_ply_file(const std::string &path) {
                            "\" comes before the vertices or faces; other elements are supported "
                            "only after them");
 
-    std::error_code ec;
-    const uint64_t file_size = std::filesystem::file_size(path, ec);
-    if (ec) fail(path, "cannot read PLY: " + ec.message());
     const uint64_t body = file_size - std::min(file_size, header_bytes);
     // Each element needs at least 1 byte per scalar property in binary, or 2 in ASCII (a digit
     // and a separator); a list at least its count.
@@ -296,7 +293,22 @@ MeshData load_ply(const std::string &path) {
     if (!std::filesystem::is_regular_file(path, ec))
         fail(path, std::filesystem::is_directory(path, ec) ? "is a directory, not a PLY file"
                                                             : "PLY file not found");
-    check_ply_file(path);
+    // A ".ply.gz" file (pbrt-v4-scenes ships several) is decompressed into memory, checked
+    // there and given to assimp from memory.
+    const bool gz = has_gz_extension(path);
+    std::string data;
+    if (gz) {
+        std::string why = read_gzip_file(path, &data, memory_budget_bytes() / 4);
+        if (!why.empty()) fail(path, "cannot read PLY: the file " + why);
+        std::istringstream in(std::move(data));
+        check_ply_stream(in, in.view().size(), path);
+        data = std::move(in).str();
+    } else {
+        std::ifstream in(path, std::ios::binary);
+        const uint64_t file_size = std::filesystem::file_size(path, ec);
+        if (ec || !in) fail(path, "cannot read PLY: " + (ec ? ec.message() : "cannot be opened"));
+        check_ply_stream(in, file_size, path);
+    }
 
     Assimp::Importer importer;
     // NOTE: no post-processing at all. aiProcess_JoinIdenticalVertices would drop unreferenced
@@ -304,7 +316,8 @@ MeshData load_ply(const std::string &path) {
     // aiProcess_Triangulate is not needed for triangles and quads, and normal generation must not
     // invent shading normals. Vertex positions, order and sharing therefore stay exactly as in the
     // file.
-    const aiScene *scene = importer.ReadFile(path, 0);
+    const aiScene *scene = gz ? importer.ReadFileFromMemory(data.data(), data.size(), 0, "ply")
+                              : importer.ReadFile(path, 0);
     if (!scene) fail(path, std::string("cannot read PLY: ") + importer.GetErrorString());
     if (scene->mNumMeshes == 0) fail(path, "PLY file has no mesh");
 

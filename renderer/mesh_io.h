@@ -28,7 +28,9 @@ struct MeshData {
     size_t triangle_count() const { return indices.size() / 3; }
 };
 
-/// Reads a PLY file (ASCII, binary little- or big-endian) with assimp.
+/// Reads a PLY file (ASCII, binary little- or big-endian) with assimp. A path ending in ".gz"
+/// (pbrt-v4-scenes' "mesh.ply.gz") is decompressed into memory first (gzip_io.h), up to a
+/// quarter of the memory budget.
 ///
 /// Reads vertex positions x/y/z, normals nx/ny/nz and texture coordinates under any of the names
 /// assimp knows (u/v, s/t, texture_u/texture_v, texture_s/texture_t); other vertex properties

@@ -18,6 +18,7 @@
 #include <sstream>
 #include <string_view>
 
+#include "renderer/gzip_io.h"
 #include "renderer/limits.h"
 #include "renderer/spectra.h"
 
@@ -213,6 +214,11 @@ std::string join(const std::string &dir, const std::string &file) {
 /// Reads a whole text file. Returns "" on success, else why not ("not found", "is a directory",
 /// ...). Only regular files are read: a FIFO or a device such as /dev/zero would never end.
 std::string read_text_file(const std::string &path, std::string *out) {
+    // A ".gz" file is decompressed first (pbrt-v4 ReadDecompressedFileContents), up to the
+    // text-file limit and a quarter of the memory budget.
+    if (has_gz_extension(path))
+        return read_gzip_file(path, out,
+                              std::min<uint64_t>(kMaxTextFileBytes, memory_budget_bytes() / 4));
     std::error_code ec;
     fs::file_status st = fs::status(path, ec);
     if (ec || !fs::exists(st)) return "not found";
@@ -691,9 +697,6 @@ void Parser::parse(Tokenizer &tok, const std::string &dir, int depth) {
             if (depth + 1 > kMaxIncludeDepth)
                 throw SceneError(loc, d + " nested more than " +
                                           std::to_string(kMaxIncludeDepth) + " files deep");
-            if (name.ends_with(".gz"))
-                throw SceneError(loc, d + " file \"" + name +
-                                          "\" is gzip-compressed; decompress it (gunzip) first");
             std::string path, text;
             std::string why = read_relative(dir, name, &path, &text);
             if (!why.empty())
@@ -896,8 +899,6 @@ SceneDesc parse_pbrt_file(const std::string &path) {
     std::string text;
     if (std::string why = read_text_file(path, &text); !why.empty())
         throw SceneError(path + ":0: cannot open the scene file: " + why);
-    if (path.ends_with(".gz"))
-        throw SceneError(path + ": gzip-compressed scene files are not supported");
     return parse_text(std::move(text), path, dir_of(path), path);
 }
 

@@ -15,6 +15,7 @@
 #include <sstream>
 
 #include "renderer/image_io.h"
+#include "renderer/gzip_io.h"
 #include "renderer/path_integrator.h"
 #include "renderer/pbrt_parser.h"
 #include "renderer/render.h"
@@ -121,7 +122,7 @@ void add_obj_files(const std::string &obj, std::set<std::string> &out) {
 
 std::vector<std::string> scene_dependencies(const std::string &scene_path) {
     std::set<std::string> deps;
-    std::string ext = fs::path(scene_path).extension().string();
+    std::string ext = fs::path(strip_gz_extension(scene_path)).extension().string();
     std::transform(ext.begin(), ext.end(), ext.begin(),
                    [](unsigned char c) { return std::tolower(c); });
     if (ext == ".obj") {

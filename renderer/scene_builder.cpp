@@ -7,6 +7,7 @@
 
 #include "renderer/mesh_io.h"
 #include "renderer/default_view.h"
+#include "renderer/gzip_io.h"
 #include "renderer/limits.h"
 #include "renderer/loop_subdiv.h"
 #if __has_include("renderer/obj_loader.h")
@@ -590,10 +591,14 @@ std::unique_ptr<Scene> load_scene(const std::string &path, const SceneOverrides 
                          (!fs::exists(st)            ? "not found"
                           : fs::is_directory(st)     ? "is a directory, not a file"
                                                      : "is not a regular file"));
-    std::string ext = fs::path(path).extension().string();
+    // "x.ply.gz" is a PLY mesh and "x.pbrt.gz" a scene file, both gzip-compressed.
+    std::string ext = fs::path(strip_gz_extension(path)).extension().string();
     for (char &c : ext) c = char(std::tolower(static_cast<unsigned char>(c)));
     SceneDesc desc;
-    if (ext == ".obj") {
+    if (ext == ".obj" && has_gz_extension(path)) {
+        throw SceneError(path + ":0: gzip-compressed OBJ files are not supported; decompress it "
+                                "(gunzip) first");
+    } else if (ext == ".obj") {
 #ifdef TESSERA_HAVE_OBJ
         desc = load_obj_scene(path);
 #endif

@@ -22,7 +22,7 @@ packages=(
   build-essential cmake pkg-config
   libembree-dev libtbb-dev
   libopenimageio-dev openimageio-tools libopenexr-dev libopencolorio-dev
-  libassimp-dev libtinyobjloader-dev nlohmann-json3-dev libcli11-dev
+  libassimp-dev libtinyobjloader-dev nlohmann-json3-dev libcli11-dev zlib1g-dev
   doctest-dev libbenchmark-dev
   # scripts/convergence_report.py (tessera converge's report.html, the benchmark suite)
   python3 python3-numpy python3-matplotlib

@@ -5,6 +5,7 @@
 #include <filesystem>
 #include <fstream>
 
+#include "gzip_test_util.h"
 #include "renderer/mesh_io.h"
 #include "renderer/scene_desc.h"
 #include "test_helpers.h"
@@ -190,4 +191,66 @@ TEST_CASE("load_ply: Stanford bunny (binary) and bunny_lowres (ASCII, extra prop
     CHECK(low.indices[0] == 164);
     CHECK(low.indices[1] == 94);
     CHECK(low.indices[2] == 98);
+}
+
+TEST_CASE("load_ply: a .ply.gz file gives exactly the mesh of the .ply it compresses") {
+    // pbrt-v4-scenes ships meshes as "geometry/*.ply.gz"; pbrt-v4 decompresses them.
+    auto same = [](const MeshData &a, const MeshData &b) {
+        REQUIRE(a.p.size() == b.p.size());
+        for (size_t i = 0; i < a.p.size(); ++i) {
+            CHECK(a.p[i].x == b.p[i].x);
+            CHECK(a.p[i].y == b.p[i].y);
+            CHECK(a.p[i].z == b.p[i].z);
+        }
+        CHECK(a.n.size() == b.n.size());
+        CHECK(a.uv.size() == b.uv.size());
+        CHECK(a.indices == b.indices);
+    };
+    MeshData ascii = load_ply(write_text("gz_ascii.ply", kAsciiQuad));
+    MeshData ascii_gz = load_ply(test::write_gzip(temp_dir() / "gz_ascii.ply.gz", kAsciiQuad));
+    same(ascii, ascii_gz);
+    CHECK(ascii_gz.n.size() == 5);
+    CHECK(ascii_gz.uv[4].y == 0.25f);
+
+    // Binary, and the bunny where ../shared is present.
+    std::string s =
+        "ply\nformat binary_little_endian 1.0\nelement vertex 3\n"
+        "property float x\nproperty float y\nproperty float z\n"
+        "element face 1\nproperty list uchar int vertex_indices\nend_header\n";
+    for (float f : {0.f, 0.f, 0.f, 1.f, 0.f, 0.f, 0.f, 1.5f, 0.f}) put(s, f);
+    put<uint8_t>(s, 3);
+    for (int32_t i : {2, 1, 0}) put(s, i);
+    same(load_ply(write_text("gz_bin.ply", s)),
+         load_ply(test::write_gzip(temp_dir() / "gz_bin.ply.gz", s)));
+
+    std::string shared = test::shared_dir();
+    if (!shared.empty()) {
+        std::ifstream in(shared + "/scenes/stanford-bunny/bunny.ply", std::ios::binary);
+        std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+        MeshData gz = load_ply(test::write_gzip(temp_dir() / "bunny.ply.gz", bytes));
+        same(load_ply(shared + "/scenes/stanford-bunny/bunny.ply"), gz);
+        CHECK(gz.triangle_count() == 69451);
+    }
+}
+
+TEST_CASE("load_ply: a broken .ply.gz is an error naming the file") {
+    // Decompressed but malformed: the same checks as a plain PLY file.
+    std::string no_end = test::write_gzip(temp_dir() / "no_end.ply.gz",
+                                          "ply\nformat ascii 1.0\nelement vertex 3\n");
+    CHECK_THROWS_WITH(load_ply(no_end), doctest::Contains((no_end + ":0: PLY header has no").c_str()));
+    // A face list that runs past the end of the decompressed data.
+    std::string past = test::write_gzip(
+        temp_dir() / "past.ply.gz",
+        "ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\n"
+        "property float y\nproperty float z\nelement face 1\n"
+        "property list uchar int vertex_indices\nend_header\n" +
+            std::string(36, '\0') + "\xff");
+    CHECK_THROWS_WITH(load_ply(past), doctest::Contains("runs past the end of the file"));
+    // Truncated compressed data.
+    std::string whole = test::write_gzip(temp_dir() / "whole.ply.gz", kAsciiQuad);
+    std::ifstream in(whole, std::ios::binary);
+    std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    std::string cut = write_text("cut.ply.gz", bytes.substr(0, bytes.size() - 10));
+    CHECK_THROWS_WITH(load_ply(cut),
+                      doctest::Contains((cut + ":0: cannot read PLY: the file is not valid gzip data").c_str()));
 }

@@ -4,6 +4,7 @@
 #include <filesystem>
 #include <fstream>
 
+#include "gzip_test_util.h"
 #include "renderer/pbrt_parser.h"
 #include "test_helpers.h"
 
@@ -497,8 +498,38 @@ TEST_CASE("Include inside an included file resolves against the main file's dire
     REQUIRE(s.shapes.size() == 1);
     CHECK(s.shapes[0].loc.file == (dir / "geometry" / "part.pbrt").string());
     CHECK(s.shapes[0].base_dir == dir.string());
-    // A gzip-compressed include is reported clearly.
-    write_file(dir / "gz.pbrt", "WorldBegin\nInclude \"x.pbrt.gz\"\n");
-    CHECK_THROWS_WITH(parse_pbrt_file((dir / "gz.pbrt").string()),
-                      doctest::Contains("gz.pbrt:2: Include file \"x.pbrt.gz\" is gzip-compressed"));
+}
+
+TEST_CASE("gzip-compressed scene files and includes are decompressed (pbrt-v4)") {
+    auto dir = temp_dir("gzip_scene");
+    // An Include and an Import of ".pbrt.gz" files, from a main file that is itself ".gz".
+    test::write_gzip(dir / "geometry" / "part.pbrt.gz",
+                     "Shape \"sphere\" \"float radius\" [ 2.5 ]\n");
+    test::write_gzip(dir / "more.pbrt.gz", "Shape \"disk\"\n");
+    const std::string main_text = "Film \"rgb\" \"integer xresolution\" [ 32 ]\nWorldBegin\n"
+                                  "Include \"geometry/part.pbrt.gz\"\nImport \"more.pbrt.gz\"\n";
+    std::string main_gz = test::write_gzip(dir / "main.pbrt.gz", main_text);
+    SceneDesc s = parse_pbrt_file(main_gz);
+    REQUIRE(s.shapes.size() == 2);
+    CHECK(s.shapes[0].type == "sphere");
+    CHECK(s.shapes[0].params.get_float("radius", 1.f) == 2.5f);
+    CHECK(s.shapes[0].loc.file == (dir / "geometry" / "part.pbrt.gz").string());
+    CHECK(s.shapes[0].loc.line == 1);
+    CHECK(s.shapes[1].type == "disk");
+    CHECK(s.film.params.get_int("xresolution", 0) == 32);
+    // The same text uncompressed parses to the same shapes and film.
+    write_file(dir / "plain.pbrt", main_text);
+    SceneDesc p = parse_pbrt_file((dir / "plain.pbrt").string());
+    CHECK(p.shapes.size() == 2);
+    CHECK(p.film.params.get_int("xresolution", 0) == 32);
+
+    // A truncated compressed include is an error at the Include line, not a shorter scene.
+    std::string whole = test::write_gzip(dir / "whole.gz", std::string(20000, '#') + "\n");
+    std::ifstream in(whole, std::ios::binary);
+    std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    write_file(dir / "cut.pbrt.gz", bytes.substr(0, bytes.size() / 2));
+    write_file(dir / "cut_main.pbrt", "WorldBegin\nInclude \"cut.pbrt.gz\"\n");
+    CHECK_THROWS_WITH(parse_pbrt_file((dir / "cut_main.pbrt").string()),
+                      doctest::Contains("cut_main.pbrt:2: cannot open Include file \"cut.pbrt.gz\": "
+                                        "is not valid gzip data (truncated"));
 }
