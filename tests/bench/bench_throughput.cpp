@@ -212,7 +212,7 @@ uint64_t raw_embree_packets(const Scene &scene, int spp, int bounces, uint32_t t
 
 int main(int argc, char **argv) {
     int res = 256, spp = 16, reps = 3;
-    bool packets = false;
+    bool packets = false, usage = false;
     uint32_t threads = 0;
     std::vector<std::string> scenes;
     for (int i = 1; i < argc; ++i) {
@@ -223,9 +223,10 @@ int main(int argc, char **argv) {
         else if (a == "--threads") threads = uint32_t(next());
         else if (a == "--reps") reps = next();
         else if (a == "--packets") packets = true;
+        else if (a.starts_with("-")) usage = true;  // --help, or an unknown option
         else scenes.push_back(a);
     }
-    if (scenes.empty()) {
+    if (usage || scenes.empty()) {
         std::fprintf(stderr, "usage: bench_throughput [--res N] [--spp N] [--threads N] "
                              "[--reps N] [--packets] SCENE...\n");
         return 2;
@@ -236,7 +237,13 @@ int main(int argc, char **argv) {
         SceneOverrides ov;
         ov.width = ov.height = res;
         ov.spp = spp;
-        auto scene = load_scene(path, ov);
+        std::unique_ptr<Scene> scene;
+        try {
+            scene = load_scene(path, ov);
+        } catch (const SceneError &e) {
+            std::fprintf(stderr, "bench_throughput: %s\n", e.what());
+            return 2;
+        }
         double best_render = 1e30, best_raw = 1e30, best_packet = 1e30;
         uint64_t packet_rays = 0;
         uint64_t rays = 0, samples = 0, raw_rays = 0;
