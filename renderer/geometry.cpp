@@ -66,6 +66,36 @@ bool intersect_quadric(const Quadric &q, Vec3d o_world, Vec3d d_world, double t_
         }
         return false;
     }
+    if (q.kind == Quadric::Kind::Cylinder) {
+        // x^2 + y^2 = r^2 with the stable discriminant of pbrt-v4 Cylinder::BasicIntersect.
+        double r = q.radius;
+        double a = d.x * d.x + d.y * d.y;
+        if (a == 0) return false;  // parallel to the axis
+        double b = 2 * (d.x * o.x + d.y * o.y);
+        double c = o.x * o.x + o.y * o.y - r * r;
+        double f = b / (2 * a);
+        double vx = o.x - f * d.x, vy = o.y - f * d.y;
+        double len = std::sqrt(vx * vx + vy * vy);
+        double disc = 4 * a * (r + len) * (r - len);
+        if (disc < 0) return false;
+        double root = std::sqrt(disc);
+        double qq = b < 0 ? -0.5 * (b - root) : -0.5 * (b + root);
+        double t0 = qq / a, t1 = c / qq;
+        if (t0 > t1) std::swap(t0, t1);
+        for (double t : {t0, t1}) {
+            if (!(t > t_min && t < t_max)) continue;
+            double pz = o.z + t * d.z;
+            if (pz < q.zmin || pz > q.zmax) continue;
+            if (q.phi_max < 2 * kPi) {
+                double phi = std::atan2(o.y + t * d.y, o.x + t * d.x);
+                if (phi < 0) phi += 2 * M_PI;
+                if (phi > q.phi_max) continue;
+            }
+            *t_hit = t;
+            return true;
+        }
+        return false;
+    }
     // Disk at z = height.
     if (d.z == 0) return false;
     double t = (q.height - o.z) / d.z;
@@ -238,7 +268,7 @@ namespace {
 void quadric_bounds(const RTCBoundsFunctionArguments *args) {
     const Quadric &q = *static_cast<const Quadric *>(args->geometryUserPtr);
     Vec3f lo, hi;
-    if (q.kind == Quadric::Kind::Sphere) {
+    if (q.kind == Quadric::Kind::Sphere || q.kind == Quadric::Kind::Cylinder) {
         lo = {-q.radius, -q.radius, q.zmin};
         hi = {q.radius, q.radius, q.zmax};
     } else {
@@ -514,6 +544,26 @@ void fill_quadric(const Quadric &q, Vec3f p_world, SurfaceInteraction &si) {
         double dtheta = theta_zmax - theta_zmin;
         dpdv_obj = {float(dtheta * po.z * cphi), float(dtheta * po.z * sphi),
                     float(-dtheta * q.radius * std::sin(theta))};
+    } else if (q.kind == Quadric::Kind::Cylinder) {
+        // Reproject onto the surface (pbrt-v4 Cylinder::BasicIntersect) and bound the error.
+        double hit_rad = std::sqrt(po.x * po.x + po.y * po.y);
+        if (hit_rad > 0) {
+            po.x *= q.radius / hit_rad;
+            po.y *= q.radius / hit_rad;
+        } else {
+            po.x = q.radius;
+        }
+        po.z = std::clamp(po.z, double(q.zmin), double(q.zmax));
+        p_obj = {float(po.x), float(po.y), float(po.z)};
+        err_obj = Vec3f(std::abs(p_obj.x), std::abs(p_obj.y), 0.f) * gamma_n(3);
+        double phi = std::atan2(po.y, po.x);
+        if (phi < 0) phi += 2 * M_PI;
+        double dz = double(q.zmax) - q.zmin;
+        uv = {float(phi / q.phi_max), float(dz > 0 ? (po.z - q.zmin) / dz : 0.0)};
+        // cross(dpdu, dpdv) points away from the axis: the normal is (x, y, 0) / r.
+        n_obj = normalize(Vec3f(p_obj.x, p_obj.y, 0.f));
+        dpdu_obj = {float(-q.phi_max * po.y), float(q.phi_max * po.x), 0.f};
+        dpdv_obj = {0.f, 0.f, float(dz > 0 ? dz : 1.0)};
     } else {
         po.z = q.height;
         p_obj = {float(po.x), float(po.y), float(po.z)};

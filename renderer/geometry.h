@@ -42,11 +42,12 @@ struct TriangleMesh {
     float area(size_t tri) const;
 };
 
-/// pbrt "sphere" (radius, zmin, zmax, phimax) or "disk" (height, radius, innerradius, phimax).
+/// pbrt "sphere" (radius, zmin, zmax, phimax), "cylinder" (radius, zmin, zmax, phimax: around
+/// the z axis, open at both ends) or "disk" (height, radius, innerradius, phimax).
 struct Quadric {
-    enum class Kind { Sphere, Disk } kind = Kind::Sphere;
+    enum class Kind { Sphere, Disk, Cylinder } kind = Kind::Sphere;
     Transform render_from_object;  ///< relative to the group's space
-    float radius = 1, zmin = -1, zmax = 1, phi_max = 2 * kPi;  // sphere
+    float radius = 1, zmin = -1, zmax = 1, phi_max = 2 * kPi;  // sphere, cylinder
     float height = 0, inner_radius = 0;                          // disk
     bool flip_normal = false;
     int material = -1;

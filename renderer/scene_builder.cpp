@@ -437,14 +437,14 @@ struct Builder {
             sc.geometry->add_mesh(group, std::move(*m));
             return;
         }
-        if (sd.type == "sphere" || sd.type == "disk") {
+        if (sd.type == "sphere" || sd.type == "disk" || sd.type == "cylinder") {
             const ParamSet &ps = sd.params;
             if (const Param *a = ps.find("alpha")) {
                 a->used = true;
                 bool opaque = a->type == "float" && !a->numbers.empty() && a->numbers[0] >= 1.0;
                 if (!opaque)
-                    warn(a->loc, "\"alpha\" on spheres and disks is not supported; rendered "
-                                 "opaque");
+                    warn(a->loc, "\"alpha\" on spheres, cylinders and disks is not "
+                                 "supported; rendered opaque");
             }
             Quadric q;
             q.render_from_object = xf;
@@ -455,6 +455,13 @@ struct Builder {
                 q.radius = ps.get_float("radius", 1.f);
                 q.zmin = clamp(ps.get_float("zmin", -q.radius), -q.radius, q.radius);
                 q.zmax = clamp(ps.get_float("zmax", q.radius), -q.radius, q.radius);
+                if (q.zmin > q.zmax) std::swap(q.zmin, q.zmax);
+            } else if (sd.type == "cylinder") {
+                // pbrt-v4 Cylinder: radius 1, zmin -1, zmax 1 (swapped when reversed).
+                q.kind = Quadric::Kind::Cylinder;
+                q.radius = ps.get_float("radius", 1.f);
+                q.zmin = ps.get_float("zmin", -1.f);
+                q.zmax = ps.get_float("zmax", 1.f);
                 if (q.zmin > q.zmax) std::swap(q.zmin, q.zmax);
             } else {
                 q.kind = Quadric::Kind::Disk;
@@ -475,6 +482,11 @@ struct Builder {
     }
 
     void add_quadric_light(const ShapeDesc &sd, Quadric &q) {
+        if (q.kind == Quadric::Kind::Cylinder) {
+            warn(sd.area_light_loc,
+                 "area lights on cylinders are not supported; the shape does not emit");
+            return;
+        }
         const Transform &xf = q.render_from_object;
         // Only similarity transforms keep spheres/disks round: check the scale factors.
         Vec3f ex = xf.vector({1, 0, 0}), ey = xf.vector({0, 1, 0}), ez = xf.vector({0, 0, 1});

@@ -22,7 +22,7 @@
 //                  no secondary-hit attributes without a specular material, no uv without a
 //                  texture; the general path collects all (WhittedOptions::specialize).
 // Always on (not switchable): Embree geometry types only for what exists (user geometry only
-// for spheres and disks), no environment
+// for spheres, cylinders and disks), no environment
 // distribution without an image-based light, converged tiles left after the region-tree check,
 // AOV buffers only when asked for.
 #pragma once
