@@ -98,11 +98,22 @@ class Light {
     /// One readable line for logs.
     virtual std::string describe() const = 0;
 
+    /// Area lights on a shape with constant alpha 0 (pbrt-v4 DiffuseAreaLight): no ray ever
+    /// hits the shape, so the light is reached by light sampling only, without MIS -- its
+    /// type() becomes LightType::DeltaPosition, as in pbrt-v4. Call before rendering.
+    void set_sample_only() { sample_only_ = true; }
+    bool sample_only() const { return sample_only_; }
+
   protected:
     explicit Light(LightShape shape = LightShape::Other) : shape_(shape) {}
+    /// type() of an area light: Area, or DeltaPosition when sample_only().
+    LightType area_type() const {
+        return sample_only_ ? LightType::DeltaPosition : LightType::Area;
+    }
 
   private:
     LightShape shape_;
+    bool sample_only_ = false;
 };
 
 /// Isotropic point light (pbrt-v4 "point"): intensity I in W/sr.
@@ -271,7 +282,7 @@ class TriangleLight final : public Light {
     /// Vertices in world space; `n`: unit normal of the emitting side (the caller applies
     /// pbrt's orientation rules); `radiance`: emitted radiance (after scale/power).
     TriangleLight(Vec3f p0, Vec3f p1, Vec3f p2, Vec3f n, Rgb radiance, bool twosided);
-    LightType type() const override { return LightType::Area; }
+    LightType type() const override { return area_type(); }
     std::optional<LightLiSample> sample_li(const LightSampleContext &ctx, Vec2f u) const override;
     float pdf_li(const LightSampleContext &ctx, Vec3f wi, Vec3f p_light,
                  Vec3f n_light) const override;
@@ -295,7 +306,7 @@ class SphereLight final : public Light {
   public:
     SphereLight(Vec3f center, float radius, Rgb radiance, bool reverse_orientation = false,
                 bool twosided = false);
-    LightType type() const override { return LightType::Area; }
+    LightType type() const override { return area_type(); }
     std::optional<LightLiSample> sample_li(const LightSampleContext &ctx, Vec2f u) const override;
     float pdf_li(const LightSampleContext &ctx, Vec3f wi, Vec3f p_light,
                  Vec3f n_light) const override;
@@ -319,7 +330,7 @@ class DiskLight final : public Light {
   public:
     /// `n`: unit normal of the emitting side.
     DiskLight(Vec3f center, Vec3f n, float radius, Rgb radiance, bool twosided = false);
-    LightType type() const override { return LightType::Area; }
+    LightType type() const override { return area_type(); }
     std::optional<LightLiSample> sample_li(const LightSampleContext &ctx, Vec2f u) const override;
     float pdf_li(const LightSampleContext &ctx, Vec3f wi, Vec3f p_light,
                  Vec3f n_light) const override;

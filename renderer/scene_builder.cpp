@@ -414,9 +414,13 @@ struct Builder {
                 } else {
                     m->alpha = clamp(sd.params.get_float("alpha", 1.f), 0.f, 1.f);
                 }
-                if (emissive && (m->alpha_texture || m->alpha < 1.f))
+                // Constant alpha 0 (below): invisible, its lights sample-only, as in pbrt-v4.
+                if (emissive && (m->alpha_texture || (m->alpha < 1.f && m->alpha > 0.f)))
                     warn(a->loc, "\"alpha\" does not mask the emission of area lights");
             }
+            // pbrt-v4 (DiffuseAreaLight): an emitter whose alpha is the constant 0 is never hit
+            // by a ray, so it is reached by light sampling alone, with full weight.
+            const bool invisible = !m->alpha_texture && m->alpha <= 0.f;
             if (emissive) {
                 m->lights.assign(m->triangle_count(), nullptr);
                 for (size_t t = 0; t < m->triangle_count(); ++t) {
@@ -427,6 +431,7 @@ struct Builder {
                              i2 = m->indices[3 * t + 2];
                     auto light = std::make_unique<TriangleLight>(
                         m->p[i0], m->p[i1], m->p[i2], m->oriented_normal(t), em.L, em.twosided);
+                    if (invisible) light->set_sample_only();
                     m->lights[t] = light.get();
                     sc.lights.push_back(std::move(light));
                     sc.features.emissive_shapes = true;
@@ -434,17 +439,22 @@ struct Builder {
                 sd.area_light->report_unused("AreaLightSource");
             }
             sd.params.report_unused("Shape \"" + sd.type + "\"");
-            sc.geometry->add_mesh(group, std::move(*m));
+            // Nothing can hit an invisible mesh: it stays out of the BVH.
+            if (!invisible) sc.geometry->add_mesh(group, std::move(*m));
             return;
         }
         if (sd.type == "sphere" || sd.type == "disk" || sd.type == "cylinder") {
             const ParamSet &ps = sd.params;
+            // Constant alpha 0: the shape is invisible (pbrt-v4) -- not added to the geometry;
+            // an emitter stays as a sample-only light. Other alpha values are not supported.
+            bool invisible = false;
             if (const Param *a = ps.find("alpha")) {
                 a->used = true;
-                bool opaque = a->type == "float" && !a->numbers.empty() && a->numbers[0] >= 1.0;
-                if (!opaque)
+                bool constant = a->type == "float" && !a->numbers.empty();
+                invisible = constant && a->numbers[0] <= 0.0;
+                if (!(constant && (a->numbers[0] >= 1.0 || invisible)))
                     warn(a->loc, "\"alpha\" on spheres, cylinders and disks is not "
-                                 "supported; rendered opaque");
+                                 "supported except 0 and 1; rendered opaque");
             }
             Quadric q;
             q.render_from_object = xf;
@@ -471,8 +481,9 @@ struct Builder {
             }
             q.phi_max = radians(clamp(ps.get_float("phimax", 360.f), 0.f, 360.f));
             if (!(q.radius > 0)) throw SceneError(sd.loc, sd.type + ": radius must be positive");
-            if (emissive) add_quadric_light(sd, q);
+            if (emissive) add_quadric_light(sd, q, invisible);
             ps.report_unused("Shape \"" + sd.type + "\"");
+            if (invisible) return;
             sc.features.quadrics = true;
             sc.geometry->add_quadric(group, q);
             return;
@@ -481,7 +492,8 @@ struct Builder {
         for (const Param &p : sd.params.params) p.used = true;
     }
 
-    void add_quadric_light(const ShapeDesc &sd, Quadric &q) {
+    /// `sample_only`: the shape is invisible (constant alpha 0); its light is sample-only.
+    void add_quadric_light(const ShapeDesc &sd, Quadric &q, bool sample_only) {
         if (q.kind == Quadric::Kind::Cylinder) {
             warn(sd.area_light_loc,
                  "area lights on cylinders are not supported; the shape does not emit");
@@ -519,6 +531,7 @@ struct Builder {
             light = std::make_unique<DiskLight>(xf.point({0, 0, q.height}), n, r, em.L,
                                                 em.twosided);
         }
+        if (sample_only) light->set_sample_only();
         q.light = light.get();
         sc.lights.push_back(std::move(light));
         sc.features.emissive_shapes = true;
