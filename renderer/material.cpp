@@ -416,12 +416,21 @@ int MaterialSet::build(const std::string &name, const std::map<std::string, Mate
         warn(d.loc, "\"diffusetransmission\" is approximated by \"diffuse\" (its "
                     "transmission is dropped)");
         if (const Param *p = ps.find("transmittance")) p->used = true;
+        // pbrt-v4 reflects clamp(scale * reflectance, 0, 1).
         float scale = ps.get_float("scale", 1.f);
-        Rgb r(0.25f);
-        if (ps.get_texture("reflectance").empty())
+        if (!ps.get_texture("reflectance").empty()) {
+            if (scale != 1.f)
+                warn(ps.find("scale")->loc, "\"diffusetransmission\" \"scale\" of a textured "
+                                            "reflectance is not supported; ignored");
+            m = std::make_unique<DiffuseMaterial>(
+                tex.spectrum_param(ps, "reflectance", std::nullopt, false));
+        } else {
+            Rgb r(0.25f);
             if (std::optional<Rgb> c = ps.get_rgb("reflectance", false, false)) r = *c;
-        m = std::make_unique<DiffuseMaterial>(
-            tex.spectrum_param(ps, "reflectance", r * scale, false));
+            r *= scale;
+            r = Rgb(clamp(r.r, 0.f, 1.f), clamp(r.g, 0.f, 1.f), clamp(r.b, 0.f, 1.f));
+            m = std::make_unique<DiffuseMaterial>(tex.spectrum_param(ParamSet{}, "", r, false));
+        }
     }
 
     if (m) {

@@ -65,6 +65,18 @@ TEST_CASE("diffusetransmission keeps pbrt-v4's reflectance default 0.25") {
     auto sc = scene_from_string(s);
     // Albedo 0.25 under a white environment, one bounce: 0.25 everywhere on the sphere.
     CHECK(image_mean(render_image(*sc), 0) == doctest::Approx(0.25).epsilon(0.01));
+    // "scale" multiplies a given reflectance too, then clamps to 1 (pbrt-v4):
+    // 0.2 x 2 = 0.4 in red, 0.8 x 2 = 1.6 -> 1 in blue.
+    auto scaled = [&](const std::string &params) {
+        std::string t = s;
+        t.replace(t.find("\"diffusetransmission\""), 21, "\"diffusetransmission\" " + params);
+        return render_image(*scene_from_string(t));
+    };
+    sampling::RgbImage img = scaled("\"rgb reflectance\" [ 0.2 0.4 0.8 ] \"float scale\" [ 2 ]");
+    CHECK(image_mean(img, 0) == doctest::Approx(0.4).epsilon(0.01));
+    CHECK(image_mean(img, 1) == doctest::Approx(0.8).epsilon(0.01));
+    CHECK(image_mean(img, 2) == doctest::Approx(1.0).epsilon(0.01));
+    CHECK(image_mean(scaled("\"float scale\" [ 0.5 ]"), 0) == doctest::Approx(0.125).epsilon(0.01));
 }
 
 TEST_CASE("bump mapping: a displacement ramp tilts the shading normal by atan(slope)") {
