@@ -573,8 +573,9 @@ PreparedImage prepare_image(const std::string &path, const std::string &encoding
         pixels.resize(size_t(roi.npixels()));
         for (size_t i = 0; i < pixels.size(); ++i) {
             const float *px = &rgba[i * size_t(nin)];
-            // Alpha is coverage, stored linearly; colour channels are decoded first.
-            pixels[i] = use_alpha ? px[3]
+            // Every channel of an integer image is decoded, alpha too: pbrt-v4's
+            // Image::GetChannel runs the encoding on whichever channel it reads.
+            pixels[i] = use_alpha ? enc.decode(px[3])
                                   : (enc.decode(px[0]) + enc.decode(px[1]) + enc.decode(px[2])) /
                                         3.f;
         }

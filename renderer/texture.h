@@ -83,7 +83,8 @@ float srgb_to_linear(float v);
 /// bilinear within one MIP level; "point", "trilinear", and "ewa" which maps to OIIO's anisotropic
 /// filter with "maxanisotropy", default 8), "scale" and "invert". A float image map of a
 /// one-channel image reads it; of a colour image, the average of the linear R, G, B, or the
-/// alpha channel when an RGBA image's alpha is not all 1 (pbrt-v4's MIPMap::Bilerp<Float>; its
+/// alpha channel (decoded like the colour channels, as pbrt-v4 does) when an RGBA image's alpha
+/// is not all 1 (pbrt-v4's MIPMap::Bilerp<Float>; its
 /// "point"/"ewa" filters read channel 0 instead, a difference kept for simplicity); a spectrum
 /// image map reads RGB, or grey from 1 channel. Relative file names resolve against the main
 /// scene file's directory, then the declaring file's.

@@ -499,5 +499,34 @@ TEST_CASE("float image maps of colour images: RGB average, or alpha when it is n
     ctx.uv = {0.5f, 0.5f};
     CHECK(set.get_float("c")->evaluate(ctx) == doctest::Approx(0.5f).epsilon(1e-3));
     CHECK(set.get_float("a")->evaluate(ctx) == doctest::Approx(0.25f).epsilon(1e-3));
+
+    // An 8-bit RGBA PNG: its alpha is decoded with the image's encoding (sRGB by default) like
+    // the colour channels, as pbrt-v4's Image::GetChannel does; "linear" leaves it as stored.
+    {
+        const std::string png = (dir / "rgba8.png").string();
+        OIIO::ImageSpec spec(2, 2, 4, OIIO::TypeDesc::UINT8);
+        auto out = OIIO::ImageOutput::create(png);
+        REQUIRE(out);
+        REQUIRE(out->open(png, spec));
+        // Four pixels of (200, 100, 50, 128); filled by index (g++ 12 misreports an
+        // insert of an initializer list of bytes with -Wstringop-overflow).
+        std::vector<uint8_t> px(16);
+        const uint8_t texel[4] = {200, 100, 50, 128};
+        for (size_t i = 0; i < px.size(); ++i) px[i] = texel[i % 4];
+        REQUIRE(out->write_image(OIIO::TypeDesc::UINT8, px.data()));
+        out->close();
+        TextureDesc srgb = float_map("a8", "rgba8.png");
+        TextureDesc lin = float_map("a8lin", "rgba8.png");
+        Param e;
+        e.type = "string";
+        e.name = "encoding";
+        e.strings = {"linear"};
+        lin.params.params.push_back(e);
+        TextureSet set8(std::vector<TextureDesc>{srgb, lin});
+        CHECK(set8.get_float("a8")->evaluate(ctx) ==
+              doctest::Approx(srgb_to_linear(128.f / 255.f)).epsilon(2e-3));
+        CHECK(set8.get_float("a8lin")->evaluate(ctx) ==
+              doctest::Approx(128.f / 255.f).epsilon(2e-3));
+    }
     fs::remove_all(dir);
 }
