@@ -99,7 +99,7 @@ CameraRay PathIntegrator::camera_ray(const CameraSample &cs,
 
 Sample PathIntegrator::to_sample(const PathResult &r) const {
     Sample s;
-    s.radiance = r.L * scene_.settings.image_scale;
+    s.radiance = scene_.settings.to_film(r.L);
     float m = s.radiance.max_value();
     if (m > scene_.settings.max_component) s.radiance *= scene_.settings.max_component / m;
     s.albedo = r.albedo;

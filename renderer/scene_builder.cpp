@@ -10,6 +10,7 @@
 #include "renderer/gzip_io.h"
 #include "renderer/limits.h"
 #include "renderer/loop_subdiv.h"
+#include "renderer/spectra.h"
 #if __has_include("renderer/obj_loader.h")
 #include "renderer/obj_loader.h"
 #define TESSERA_HAVE_OBJ 1
@@ -88,14 +89,28 @@ void apply_settings(const SceneDesc &d, const SceneOverrides &ov, Scene &sc) {
         // camera's shutter below), and RGBFilm clamps each sample's largest component.
         s.image_scale = ps.get_float("iso", 100.f) / 100.f;
         s.max_component = ps.get_float("maxcomponentvalue", kInfinity);
+        // "whitebalance" T (pbrt-v4 PixelSensor): the white of CIE illuminant D(T) becomes the
+        // output's white, by a von Kries (Bradford) matrix on the final RGB. pbrt-v4 balances
+        // named camera sensors too (from 6500 K by default); Tessera has no sensor curves, so
+        // a named sensor renders as "cie1931" with the given white balance.
+        if (const Param *p = ps.find("whitebalance")) {
+            const float t = ps.get_float("whitebalance", 0.f);
+            if (t < 0.f || !std::isfinite(t))
+                throw SceneError(p->loc, "\"whitebalance\" must be a positive temperature in "
+                                         "kelvin (or 0: off)");
+            if (t > 0.f) {
+                s.white_balance = white_balance_srgb(daylight_xy(t), kSrgbWhiteXy);
+                s.white_balanced = true;
+            }
+        }
         for (const char *ignored : {"cropwindow", "pixelbounds", "diagonal", "savefp16",
-                                    "sensor", "whitebalance"}) {
+                                    "sensor"}) {
             if (const Param *p = ps.find(ignored)) {
-                if (std::string(ignored) == "whitebalance" ||
-                    (std::string(ignored) == "sensor" &&
-                     ps.get_string("sensor", "cie1931") != "cie1931"))
-                    warn(p->loc, std::string("Film \"") + ignored +
-                                     "\" is not supported (no sensor simulation); ignored");
+                if (std::string(ignored) == "sensor" &&
+                    ps.get_string("sensor", "cie1931") != "cie1931")
+                    warn(p->loc, "Film \"sensor\" \"" + ps.get_string("sensor", "") +
+                                     "\" is not supported (no sensor curves): rendered as "
+                                     "\"cie1931\"");
                 p->used = true;
             }
         }

@@ -157,6 +157,72 @@ Rgb blackbody_rgb(float kelvin) {
     return normalised_rgb(integrate_xyz([&](double l) { return planck(l, kelvin); }));
 }
 
+Vec2f daylight_xy(float kelvin) {
+    const double cct = double(kelvin) * 1.4388 / 1.4380;
+    if (cct < 4000) {
+        // pbrt-v4: "CIE D ill-defined, use blackbody".
+        std::array<double, 3> c = integrate_xyz([&](double l) { return planck(l, cct); });
+        const double sum = c[0] + c[1] + c[2];
+        return sum > 0 ? Vec2f{float(c[0] / sum), float(c[1] / sum)} : kSrgbWhiteXy;
+    }
+    const double t = cct, t2 = t * t, t3 = t2 * t;
+    const double x = t <= 7000 ? -4.607e9 / t3 + 2.9678e6 / t2 + 0.09911e3 / t + 0.244063
+                               : -2.0064e9 / t3 + 1.9018e6 / t2 + 0.24748e3 / t + 0.23704;
+    const double y = -3 * x * x + 2.870 * x - 0.275;
+    return {float(x), float(y)};
+}
+
+namespace {
+
+using Mat3d = std::array<double, 9>;
+
+Mat3d mul(const Mat3d &a, const Mat3d &b) {
+    Mat3d r{};
+    for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j)
+            for (int k = 0; k < 3; ++k)
+                r[size_t(3 * i + j)] += a[size_t(3 * i + k)] * b[size_t(3 * k + j)];
+    return r;
+}
+
+Mat3d inverse(const Mat3d &m) {
+    const double a = m[0], b = m[1], c = m[2], d = m[3], e = m[4], f = m[5], g = m[6], h = m[7],
+                 i = m[8];
+    const double A = e * i - f * h, B = -(d * i - f * g), C = d * h - e * g;
+    const double det = a * A + b * B + c * C;
+    return {A / det, -(b * i - c * h) / det, (b * f - c * e) / det,
+            B / det, (a * i - c * g) / det,  -(a * f - c * d) / det,
+            C / det, -(a * h - b * g) / det, (a * e - b * d) / det};
+}
+
+std::array<double, 3> apply(const Mat3d &m, std::array<double, 3> v) {
+    return {m[0] * v[0] + m[1] * v[1] + m[2] * v[2], m[3] * v[0] + m[4] * v[1] + m[5] * v[2],
+            m[6] * v[0] + m[7] * v[1] + m[8] * v[2]};
+}
+
+}  // namespace
+
+std::array<float, 9> white_balance_srgb(Vec2f src, Vec2f dst) {
+    // Bradford cone response (pbrt-v4 LMSFromXYZ).
+    const Mat3d lms_from_xyz = {0.8951, 0.2664, -0.1614, -0.7502, 1.7135,
+                                0.0367, 0.0389, -0.0685, 1.0296};
+    // XYZ from linear sRGB: the inverse of xyz_to_linear_srgb's matrix, so that M is the
+    // identity when src == dst.
+    const Mat3d srgb_from_xyz = {3.2404542,  -1.5371385, -0.4985314, -0.9692660, 1.8760108,
+                                 0.0415560,  0.0556434,  -0.2040259, 1.0572252};
+    const Mat3d xyz_from_srgb = inverse(srgb_from_xyz);
+    auto lms_of = [&](Vec2f xy) {  // XYZ of the chromaticity at Y = 1
+        return apply(lms_from_xyz, {xy.x / xy.y, 1.0, (1.0 - xy.x - xy.y) / xy.y});
+    };
+    const std::array<double, 3> s = lms_of(src), d = lms_of(dst);
+    const Mat3d scale = {d[0] / s[0], 0, 0, 0, d[1] / s[1], 0, 0, 0, d[2] / s[2]};
+    const Mat3d xyz_wb = mul(inverse(lms_from_xyz), mul(scale, lms_from_xyz));
+    const Mat3d m = mul(srgb_from_xyz, mul(xyz_wb, xyz_from_srgb));
+    std::array<float, 9> out{};
+    for (size_t k = 0; k < 9; ++k) out[k] = float(m[k]);
+    return out;
+}
+
 Rgb sampled_spectrum_rgb(std::span<const float> lambda_nm, std::span<const float> values,
                          bool illuminant) {
     auto s = [&](double l) { return eval_pwl(lambda_nm, values, l); };

@@ -18,6 +18,7 @@
 // All functions are pure and thread-safe.
 #pragma once
 
+#include <array>
 #include <optional>
 #include <span>
 #include <string>
@@ -41,6 +42,18 @@ double planck(double lambda_nm, double kelvin);
 /// divided by its photometric value). 6500 K is close to (1, 1, 1); negative (out-of-gamut)
 /// components, below about 1900 K, are clamped to 0.
 Rgb blackbody_rgb(float kelvin);
+
+/// Chromaticity (x, y) of pbrt-v4's Spectra::D(kelvin), the white a Film "whitebalance" names:
+/// the temperature is rescaled to a CCT (x 1.4388 / 1.4380), then the CIE daylight locus
+/// (CIE 15:2004) from 4000 K up, and a blackbody's chromaticity below 4000 K, as pbrt-v4 does.
+Vec2f daylight_xy(float kelvin);
+
+/// Chromaticity of the sRGB white point (D65), pbrt-v4's RGBColorSpace::sRGB->w.
+inline constexpr Vec2f kSrgbWhiteXy{0.3127f, 0.3290f};
+
+/// pbrt-v4's WhiteBalance(src_white, dst_white) -- a von Kries scaling in Bradford LMS space --
+/// expressed on linear sRGB: rgb' = M rgb with M row-major. Maps src white to dst white.
+std::array<float, 9> white_balance_srgb(Vec2f src_white_xy, Vec2f dst_white_xy);
 
 /// RGB of a piecewise-linear spectrum given by increasing wavelengths `lambda_nm` and `values`
 /// (outside the given range the spectrum is 0, as pbrt-v4's PiecewiseLinearSpectrum).

@@ -525,8 +525,7 @@ Sample WhittedIntegrator::finish_primary(const Ray &ray, std::optional<SurfaceIn
         out.secondary = &ha.secondary;
     shade_ray(ray, hit, 0, tr, out);
     // radiance = local + global, each in film units, so that shade() can rebuild it exactly.
-    const float scale = scene_.settings.image_scale;
-    Rgb local = out.local * scale, global = out.global * scale;
+    Rgb local = scene_.settings.to_film(out.local), global = scene_.settings.to_film(out.global);
     s.radiance = local + global;
     float m = s.radiance.max_value();
     if (m > scene_.settings.max_component)
@@ -611,7 +610,7 @@ Rgb WhittedIntegrator::shade(const HitAttributes &attributes) const {
             local = local_shading(sp, nullptr, nullptr, &bits, nullptr);
         }
     }
-    Rgb r = local * scene_.settings.image_scale + attributes.global_color;
+    Rgb r = scene_.settings.to_film(local) + attributes.global_color;
     float m = r.max_value();
     if (m > scene_.settings.max_component)
         r *= scene_.settings.max_component / m;

@@ -5,6 +5,7 @@
 #include <sstream>
 
 #include "render_test_util.h"
+#include "renderer/spectra.h"
 
 using namespace tessera;
 using namespace tessera::test;
@@ -62,4 +63,37 @@ TEST_CASE("--clamp (SceneOverrides::max_component) is the same clamp and wins ov
     CHECK(std::isinf(scene_from_string(emitter_scene("", ""))->settings.max_component));
     CHECK_THROWS_WITH_AS(scene_from_string(emitter_scene("\"float maxcomponentvalue\" [ 0 ]", "")),
                          doctest::Contains("must be positive"), SceneError);
+}
+
+TEST_CASE("Film whitebalance maps the white of illuminant D(T) to the sRGB white (pbrt-v4)") {
+    // An emitter of radiance (1, 1, 1) (sRGB white, D65) seen through a film balanced for
+    // 9000 K: bluish light counts as white, so D65 white comes out warm (R > G > B).
+    auto scene_with = [](const std::string &film) {
+        std::string s = emitter_scene(film, "");
+        s.replace(s.find("[ 2 3 4 ]"), 9, "[ 1 1 1 ]");
+        return scene_from_string(s);
+    };
+    auto warm = scene_with("\"float whitebalance\" [ 9000 ]");
+    REQUIRE(warm->settings.white_balanced);
+    sampling::RgbImage img = render_image(*warm);
+    const float r = img.at(1, 1, 0), g = img.at(1, 1, 1), b = img.at(1, 1, 2);
+    CHECK(r > g);
+    CHECK(g > b);
+    // The matrix's rows summed (its image of (1, 1, 1)).
+    std::array<float, 9> m = white_balance_srgb(daylight_xy(9000.f), kSrgbWhiteXy);
+    CHECK(r == doctest::Approx(m[0] + m[1] + m[2]).epsilon(1e-5));
+    CHECK(g == doctest::Approx(m[3] + m[4] + m[5]).epsilon(1e-5));
+    CHECK(b == doctest::Approx(m[6] + m[7] + m[8]).epsilon(1e-5));
+    // 6500 K is D65 to within the CCT rescaling: white stays white (within 0.5%).
+    sampling::RgbImage d65 = render_image(*scene_with("\"float whitebalance\" [ 6500 ]"));
+    for (int c = 0; c < 3; ++c) CHECK(d65.at(1, 1, c) == doctest::Approx(1.0).epsilon(0.005));
+    // 0 (the default) is off; a negative temperature is an error with the file's line.
+    CHECK_FALSE(scene_with("\"float whitebalance\" [ 0 ]")->settings.white_balanced);
+    CHECK_THROWS_WITH(scene_with("\"float whitebalance\" [ -5 ]"),
+                      doctest::Contains("test.pbrt:3: \"whitebalance\" must be a positive"));
+    // With the clamp: white balance first, then the largest component is clamped (RGBFilm).
+    sampling::RgbImage clamped = render_image(
+        *scene_with("\"float whitebalance\" [ 9000 ] \"float maxcomponentvalue\" [ 0.5 ]"));
+    CHECK(clamped.at(1, 1, 0) == doctest::Approx(0.5).epsilon(1e-5));
+    CHECK(clamped.at(1, 1, 2) == doctest::Approx(0.5 * b / r).epsilon(1e-4));
 }

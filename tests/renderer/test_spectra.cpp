@@ -138,3 +138,37 @@ TEST_CASE("named glasses, illuminants and unsupported names") {
     CHECK(!named_spectrum_rgb("canon_eos_100d_r").has_value());
     CHECK(!named_spectrum_rgb("no-such-spectrum").has_value());
 }
+
+TEST_CASE("daylight_xy: pbrt-v4's D(T) white points") {
+    // D65 and D50 (CIE 15:2004: (0.31272, 0.32903), (0.34567, 0.35850)) at their nominal
+    // temperatures, which pbrt-v4 rescales by 1.4388 / 1.4380 as the CIE does.
+    Vec2f d65 = daylight_xy(6500.f), d50 = daylight_xy(5000.f);
+    CHECK(d65.x == doctest::Approx(0.31272).epsilon(1e-3));
+    CHECK(d65.y == doctest::Approx(0.32903).epsilon(1e-3));
+    CHECK(d50.x == doctest::Approx(0.34567).epsilon(1e-3));
+    CHECK(d50.y == doctest::Approx(0.35850).epsilon(1e-3));
+    // Above 7000 K the second branch: D75 (0.29902, 0.31485).
+    Vec2f d75 = daylight_xy(7500.f);
+    CHECK(d75.x == doctest::Approx(0.29902).epsilon(1e-3));
+    CHECK(d75.y == doctest::Approx(0.31485).epsilon(1e-3));
+    // Below 4000 K a blackbody: the Planckian locus at 3000 K is (0.4369, 0.4041).
+    Vec2f bb = daylight_xy(3000.f / (1.4388f / 1.4380f));
+    CHECK(bb.x == doctest::Approx(0.4369).epsilon(5e-3));
+    CHECK(bb.y == doctest::Approx(0.4041).epsilon(5e-3));
+}
+
+TEST_CASE("white_balance_srgb: identity for equal whites, maps the source white to the target") {
+    std::array<float, 9> id = white_balance_srgb(kSrgbWhiteXy, kSrgbWhiteXy);
+    for (int i = 0; i < 9; ++i) CHECK(id[size_t(i)] == doctest::Approx(i % 4 == 0 ? 1.f : 0.f).epsilon(1e-6));
+    // The sRGB colour of the D50 white (Y = 1) goes to the sRGB colour of D65 at Y = 1: (1, 1, 1).
+    Vec2f d50{0.34567f, 0.35850f};
+    Rgb src = xyz_to_linear_srgb({d50.x / d50.y, 1.f, (1.f - d50.x - d50.y) / d50.y});
+    std::array<float, 9> m = white_balance_srgb(d50, kSrgbWhiteXy);
+    Rgb out{m[0] * src.r + m[1] * src.g + m[2] * src.b, m[3] * src.r + m[4] * src.g + m[5] * src.b,
+            m[6] * src.r + m[7] * src.g + m[8] * src.b};
+    CHECK(out.r == doctest::Approx(1.0).epsilon(2e-3));
+    CHECK(out.g == doctest::Approx(1.0).epsilon(2e-3));
+    CHECK(out.b == doctest::Approx(1.0).epsilon(2e-3));
+    // Bradford keeps luminance of the white: Y of out equals Y of src (= 1).
+    CHECK(0.2126f * out.r + 0.7152f * out.g + 0.0722f * out.b == doctest::Approx(1.0).epsilon(2e-3));
+}
