@@ -335,6 +335,9 @@ MeshData load_ply(const std::string &path) {
     if (all_normals) mesh.n.reserve(total_vertices);
     if (all_uv) mesh.uv.reserve(total_vertices);
 
+    std::vector<uint32_t> face_of_triangle;
+    uint32_t face_count = 0;
+    bool any_polygon = false;
     for (unsigned m = 0; m < scene->mNumMeshes; ++m) {
         const aiMesh *am = scene->mMeshes[m];
         const uint32_t base = uint32_t(mesh.p.size());
@@ -361,14 +364,18 @@ MeshData load_ply(const std::string &path) {
                                    std::to_string(face.mIndices[i]) + " of " +
                                    std::to_string(am->mNumVertices));
             // Fan from vertex 0: a quad (v0 v1 v2 v3) gives (v0 v1 v2) and (v0 v2 v3).
+            if (face.mNumIndices > 3) any_polygon = true;
             for (unsigned i = 1; i + 1 < face.mNumIndices; ++i) {
                 mesh.indices.push_back(base + face.mIndices[0]);
                 mesh.indices.push_back(base + face.mIndices[i]);
                 mesh.indices.push_back(base + face.mIndices[i + 1]);
+                face_of_triangle.push_back(face_count);
             }
+            ++face_count;
         }
     }
     if (mesh.indices.empty()) fail(path, "PLY file has no triangles or quads");
+    if (any_polygon) mesh.face_of_triangle = std::move(face_of_triangle);
     return mesh;
 }
 

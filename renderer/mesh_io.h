@@ -23,6 +23,10 @@ struct MeshData {
     /// Per-triangle "face_indices" (pbrt's Ptex face ids). Always empty: assimp drops unknown
     /// face properties (see load_ply).
     std::vector<int> face_indices;
+    /// Per triangle, the index of the file's face it was cut from (a quad gives two triangles);
+    /// empty when every face is a triangle. pbrt-v4 normalises an area light's "power" per
+    /// face (a quad is one bilinear patch there).
+    std::vector<uint32_t> face_of_triangle;
 
     /// Number of triangles.
     size_t triangle_count() const { return indices.size() / 3; }

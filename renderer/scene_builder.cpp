@@ -232,7 +232,11 @@ void apply_settings(const SceneDesc &d, const SceneOverrides &ov, Scene &sc) {
 }
 
 /// A shape's triangles in the target space, or nothing for quadrics/unsupported shapes.
-std::optional<TriangleMesh> triangles_of(const ShapeDesc &sd, const Transform &xf) {
+/// The triangle mesh of a mesh-like shape, or nullopt for other shapes. *face_of_triangle gets
+/// the face (quad, patch) each triangle was cut from, or stays empty when the faces are the
+/// triangles themselves.
+std::optional<TriangleMesh> triangles_of(const ShapeDesc &sd, const Transform &xf,
+                                         std::vector<uint32_t> *face_of_triangle) {
     const ParamSet &ps = sd.params;
     TriangleMesh m;
     std::vector<Vec3f> p, n;
@@ -284,6 +288,7 @@ std::optional<TriangleMesh> triangles_of(const ShapeDesc &sd, const Transform &x
         n = std::move(md.n);
         uv = std::move(md.uv);
         idx.assign(md.indices.begin(), md.indices.end());
+        *face_of_triangle = std::move(md.face_of_triangle);
         if (ps.find("displacement")) {
             warn(sd.loc, "plymesh \"displacement\" is not supported; ignored");
             for (const char *ig : {"displacement", "edgelength"})
@@ -314,6 +319,7 @@ std::optional<TriangleMesh> triangles_of(const ShapeDesc &sd, const Transform &x
             // Patch (v00, v10, v01, v11): triangles (v00, v10, v11) and (v00, v11, v01) keep the
             // orientation of dpdu x dpdv.
             idx.insert(idx.end(), {v00, v10, v11, v00, v11, v01});
+            face_of_triangle->insert(face_of_triangle->end(), 2, uint32_t(q / 4));
         }
         if (uv.empty()) {
             // pbrt-v4 gives every patch its own parametric (0,0),(1,0),(0,1),(1,1): unshare the
@@ -421,7 +427,8 @@ struct Builder {
         if (emissive && sd.area_light_type != "diffuse" && !sd.area_light_type.empty())
             throw SceneError(sd.area_light_loc,
                              "AreaLightSource \"" + sd.area_light_type + "\" is not supported");
-        if (std::optional<TriangleMesh> m = triangles_of(sd, xf)) {
+        std::vector<uint32_t> face_of_triangle;
+        if (std::optional<TriangleMesh> m = triangles_of(sd, xf, &face_of_triangle)) {
             m->material = material;
             if (const Param *a = sd.params.find("alpha")) {
                 if (a->type == "texture") {
@@ -438,9 +445,22 @@ struct Builder {
             const bool invisible = !m->alpha_texture && m->alpha <= 0.f;
             if (emissive) {
                 m->lights.assign(m->triangle_count(), nullptr);
+                // "power" is per pbrt-v4 shape: per triangle, or per quad/patch where the
+                // triangles were cut from one (pbrt-v4 makes one light per bilinear patch).
+                std::vector<float> face_area;
+                if (!face_of_triangle.empty()) {
+                    for (size_t t = 0; t < m->triangle_count(); ++t) {
+                        const size_t f = face_of_triangle[t];
+                        if (face_area.size() <= f) face_area.resize(f + 1, 0.f);
+                        face_area[f] += m->area(t);
+                    }
+                }
                 for (size_t t = 0; t < m->triangle_count(); ++t) {
                     float area = m->area(t);
-                    AreaEmission em = make_area_emission(*sd.area_light, sd.area_light_loc, area);
+                    const float shape_area =
+                        face_area.empty() ? area : face_area[face_of_triangle[t]];
+                    AreaEmission em =
+                        make_area_emission(*sd.area_light, sd.area_light_loc, shape_area);
                     if (em.L.is_black() || !(area > 0)) continue;
                     uint32_t i0 = m->indices[3 * t], i1 = m->indices[3 * t + 1],
                              i2 = m->indices[3 * t + 2];

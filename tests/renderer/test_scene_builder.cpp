@@ -323,3 +323,38 @@ TEST_CASE("build_scene: Film \"gbuffer\" keeps the geometric AOVs, \"rgb\" none,
     ov.aovs = sampling::AovSet::all();
     CHECK(build_named(film("rgb"), "film_rgb_ov.pbrt", ov)->settings.aovs == *ov.aovs);
 }
+
+TEST_CASE("build_scene: area-light \"power\" is per pbrt-v4 shape: per triangle, per quad patch") {
+    // Total emitted power (one-sided: pi * L * area per light) of a scene's lights.
+    auto total_power = [](const Scene &sc) {
+        double sum = 0;
+        for (const auto &l : sc.lights) sum += l->phi().luminance();
+        return sum;
+    };
+    const std::string head = "WorldBegin\nAreaLightSource \"diffuse\" \"float power\" [ 10 ]\n";
+    // A 2x1 bilinear patch: one pbrt shape, 10 W in all (it was 10 W per triangle: 20 W).
+    auto patch = test::scene_from_string(
+        head + "Shape \"bilinearmesh\" \"point3 P\" [ 0 0 0  2 0 0  0 1 0  2 1 0 ]\n");
+    REQUIRE(patch->lights.size() == 2);
+    CHECK(total_power(*patch) == doctest::Approx(10.0).epsilon(1e-4));
+    // Two patches of different sizes: 10 W each, 20 W in all.
+    auto two = test::scene_from_string(
+        head + "Shape \"bilinearmesh\" \"point3 P\" [ 0 0 0  2 0 0  0 1 0  2 1 0  "
+               "0 0 5  1 0 5  0 1 5  1 1 5 ] \"integer indices\" [ 0 1 2 3  4 5 6 7 ]\n");
+    CHECK(total_power(*two) == doctest::Approx(20.0).epsilon(1e-4));
+    // The same rectangle as a trianglemesh is two pbrt shapes (Triangle): 10 W each.
+    auto tris = test::scene_from_string(
+        head + "Shape \"trianglemesh\" \"point3 P\" [ 0 0 0  2 0 0  2 1 0  0 1 0 ] "
+               "\"integer indices\" [ 0 1 2  0 2 3 ]\n");
+    CHECK(total_power(*tris) == doctest::Approx(20.0).epsilon(1e-4));
+    // A PLY quad is a bilinear patch in pbrt-v4 as well; its triangles are per triangle.
+    auto dir = test::temp_dir("scene_builder_ply_power");
+    test::write_text(dir / "quad_tri.ply",
+                     "ply\nformat ascii 1.0\nelement vertex 5\nproperty float x\nproperty float y\n"
+                     "property float z\nelement face 2\nproperty list uchar int vertex_indices\n"
+                     "end_header\n0 0 0\n3 0 0\n3 1 0\n0 1 0\n5 5 0\n4 0 1 2 3\n3 1 4 2\n");
+    auto ply = test::scene_from_string(head + "Shape \"plymesh\" \"string filename\" \"" +
+                                       (dir / "quad_tri.ply").string() + "\"\n");
+    REQUIRE(ply->lights.size() == 3);
+    CHECK(total_power(*ply) == doctest::Approx(20.0).epsilon(1e-4));
+}
