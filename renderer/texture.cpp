@@ -499,8 +499,22 @@ struct PreparedImage {
 };
 
 /// Linearises `path` into a cached mipmapped texture unless it already is a linear one.
+/// True for the 8-bit formats pbrt-v4 reads through stb_image (every extension but exr, png,
+/// pfm, hdr and qoi; tiff is not one of them: stb cannot read it, so Tessera's own rules apply).
+/// pbrt-v4 tags those images sRGB whatever "encoding" says and drops their alpha.
+bool read_by_pbrt_as_srgb_rgb(const std::string &path) {
+    std::string ext = fs::path(path).extension().string();
+    for (char &c : ext) c = char(std::tolower(static_cast<unsigned char>(c)));
+    for (const char *e : {".jpg", ".jpeg", ".tga", ".bmp", ".gif", ".psd", ".pic", ".pnm",
+                          ".ppm", ".pgm"})
+        if (ext == e) return true;
+    return false;
+}
+
+/// `scalar`: a float texture. `first_channel`: its lookups read channel 0 of a colour image
+/// (pbrt-v4's "point" and "ewa" filters, MIPMap::Texel<Float>) instead of the RGB average.
 PreparedImage prepare_image(const std::string &path, const std::string &encoding_param,
-                            const FileLoc &loc, bool scalar) {
+                            const FileLoc &loc, bool scalar, bool first_channel) {
     auto in = OIIO::ImageInput::open(path);
     if (!in) throw SceneError(loc, path + ": cannot open image: " + OIIO::geterror());
     OIIO::ImageSpec spec = in->spec();
@@ -518,6 +532,12 @@ PreparedImage prepare_image(const std::string &path, const std::string &encoding
                       "\" ignored for a floating-point image (always linear)");
         enc = Encoding{};
     }
+    const bool stb_rules = !float_image && read_by_pbrt_as_srgb_rgb(path);
+    if (stb_rules && enc.kind != Encoding::Srgb) {
+        warn(loc, path + ": encoding \"" + encoding_param +
+                      "\" ignored: pbrt-v4 reads this image format as sRGB");
+        enc = Encoding{Encoding::Srgb};
+    }
     // Float textures of colour images follow pbrt-v4's MIPMap lookups of Float: the average of
     // R, G and B, or the alpha channel of an RGBA image whose alpha is not all 1 (cut-out masks).
     const bool scalar_from_colour = scalar && spec.nchannels >= 3;
@@ -527,9 +547,14 @@ PreparedImage prepare_image(const std::string &path, const std::string &encoding
 
     // The key hashes the file's bytes (not its name or date), so a rewritten but identical
     // image, or the same image in two folders, shares one cache entry.
+    // Which channel a scalar texture reads: alpha (when not all 1, and the format keeps it),
+    // channel 0, or the RGB average.
+    const bool keep_alpha = !stb_rules && !first_channel;
     std::string key = "tessera-texcache-v1|" + std::to_string(file_hash(path, loc)) + "|" +
                       enc.name() + "|" + std::to_string(out_channels) +
-                      (scalar_from_colour ? "|scalar" : "");
+                      (scalar_from_colour
+                           ? (first_channel ? "|scalar-ch0" : (keep_alpha ? "|scalar" : "|scalar-rgb"))
+                           : "");
     std::error_code ec;
     char hex[17];
     std::snprintf(hex, sizeof(hex), "%016llx", (unsigned long long)fnv1a(key));
@@ -564,7 +589,7 @@ PreparedImage prepare_image(const std::string &path, const std::string &encoding
         if (!src.get_pixels(roi, OIIO::TypeDesc::FLOAT, rgba.data()))
             throw SceneError(loc, path + ": cannot read pixels: " + src.geterror());
         bool use_alpha = false;
-        if (nin == 4)
+        if (nin == 4 && keep_alpha)
             for (size_t i = 3; i < rgba.size(); i += 4)
                 if (rgba[i] < 1.f) {
                     use_alpha = true;
@@ -575,9 +600,11 @@ PreparedImage prepare_image(const std::string &path, const std::string &encoding
             const float *px = &rgba[i * size_t(nin)];
             // Every channel of an integer image is decoded, alpha too: pbrt-v4's
             // Image::GetChannel runs the encoding on whichever channel it reads.
-            pixels[i] = use_alpha ? enc.decode(px[3])
-                                  : (enc.decode(px[0]) + enc.decode(px[1]) + enc.decode(px[2])) /
-                                        3.f;
+            pixels[i] = use_alpha       ? enc.decode(px[3])
+                        : first_channel ? enc.decode(px[0])
+                                        : (enc.decode(px[0]) + enc.decode(px[1]) +
+                                           enc.decode(px[2])) /
+                                              3.f;
         }
     } else {
         roi.chbegin = 0;
@@ -780,8 +807,9 @@ struct TextureSet::Builder {
             img.opt.mipmode = OIIO::TextureOpt::MipModeOneLevel;
             img.opt.interpmode = OIIO::TextureOpt::InterpBilinear;
         }
-        PreparedImage prep =
-            prepare_image(path, ps.get_string("encoding", ""), d.loc, d.value_type == "float");
+        const bool ch0 = filter == "point" || filter == "ewa" || filter == "EWA";
+        PreparedImage prep = prepare_image(path, ps.get_string("encoding", ""), d.loc,
+                                           d.value_type == "float", ch0);
         img.ts = texture_system();
         img.handle = img.ts->get_texture_handle(OIIO::ustring(prep.path));
         OIIO::ImageSpec spec;

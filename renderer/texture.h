@@ -74,8 +74,9 @@ float srgb_to_linear(float v);
 /// read once with OpenImageIO. Texels are linearised *before* filtering, as pbrt-v4 does:
 /// unless the file already is a linear, tiled, mipmapped texture, the image is decoded
 /// ("encoding": "sRGB" | "linear" | "gamma g"; default "sRGB" for 8/16-bit integer images and
-/// "linear" for half/float images, which are always linear; pbrt-v4 defaults to sRGB for PNG
-/// only, but reads its other 8-bit formats as sRGB regardless) and written once as a tiled,
+/// "linear" for half/float images, which are always linear; JPEG, TGA, BMP, GIF, PSD, PIC and
+/// PNM images are always sRGB and their alpha is dropped, as pbrt-v4's stb_image path does --
+/// another "encoding" warns) and written once as a tiled,
 /// mipmapped half/float OpenEXR texture (OIIO make_texture, box-filtered levels) in
 /// `<system temp dir>/tessera-texcache/`, keyed by a hash of the source file's bytes and the
 /// encoding, and reused by later runs (the folder may be deleted at any time). Lookups use pbrt's
@@ -84,8 +85,8 @@ float srgb_to_linear(float v);
 /// filter with "maxanisotropy", default 8), "scale" and "invert". A float image map of a
 /// one-channel image reads it; of a colour image, the average of the linear R, G, B, or the
 /// alpha channel (decoded like the colour channels, as pbrt-v4 does) when an RGBA image's alpha
-/// is not all 1 (pbrt-v4's MIPMap::Bilerp<Float>; its
-/// "point"/"ewa" filters read channel 0 instead, a difference kept for simplicity); a spectrum
+/// is not all 1 (pbrt-v4's MIPMap::Bilerp<Float>, the "bilinear" and "trilinear" filters); with
+/// the "point" and "ewa" filters, channel 0 (pbrt-v4's MIPMap::Texel<Float>); a spectrum
 /// image map reads RGB, or grey from 1 channel. Relative file names resolve against the main
 /// scene file's directory, then the declaring file's.
 ///

@@ -384,8 +384,9 @@ TEST_CASE("imagemap: sRGB linearisation, v flip, wrap modes, scale and invert") 
     // MIPMap::Bilerp<Float>); the top-left texel is (188, 0, 0).
     CHECK(set.get_float("imgf")->evaluate(at_uv(0.125f, 0.75f)) ==
           doctest::Approx(srgb8(188) / 3).epsilon(1e-3));
+    // The "point" (and "ewa") filter reads channel 0 instead (pbrt-v4's MIPMap::Texel<Float>).
     CHECK(set.get_float("point")->evaluate(at_uv(0.2f, 0.6f)) ==
-          doctest::Approx(srgb8(188) / 3).epsilon(1e-3));
+          doctest::Approx(srgb8(188)).epsilon(1e-3));
     // Wrap modes one texel width beyond s = 1.
     Rgb rep = img->evaluate(at_uv(1.125f, 0.75f));
     CHECK(rep.r == doctest::Approx(srgb8(188)).epsilon(1e-3));
@@ -529,4 +530,38 @@ TEST_CASE("float image maps of colour images: RGB average, or alpha when it is n
               doctest::Approx(128.f / 255.f).epsilon(2e-3));
     }
     fs::remove_all(dir);
+}
+
+TEST_CASE("imagemap: formats pbrt-v4 reads with stb_image are sRGB and lose their alpha") {
+    // A 2x2 RGBA TGA of (200, 100, 50, 128). pbrt-v4 reads TGA/JPEG/BMP/... through stb_image:
+    // always sRGB whatever "encoding" says, and only R, G, B of a 4-channel image.
+    std::vector<uint8_t> px(16);
+    const uint8_t texel[4] = {200, 100, 50, 128};
+    for (size_t i = 0; i < px.size(); ++i) px[i] = texel[i % 4];
+    // Written as stored: OIIO would otherwise take the buffer as premultiplied and divide by
+    // the alpha on writing a TGA.
+    std::string tga = (temp_dir() / "rgba2x2.tga").string();
+    {
+        OIIO::ImageSpec spec(2, 2, 4, OIIO::TypeDesc::UINT8);
+        spec.attribute("oiio:UnassociatedAlpha", 1);
+        OIIO::ImageBuf buf(spec);
+        buf.set_pixels(buf.roi(), OIIO::TypeDesc::UINT8, px.data());
+        REQUIRE(buf.write(tga));
+    }
+    const float avg = (srgb8(200) + srgb8(100) + srgb8(50)) / 3;
+    int before = warning_count();
+    std::vector<TextureDesc> d = {
+        desc("f", "float", "imagemap", {str("string", "filename", tga)}),
+        desc("lin", "spectrum", "imagemap",
+             {str("string", "filename", tga), str("string", "encoding", "linear")}),
+    };
+    TextureSet set(d);
+    // The float map reads the RGB average, not the alpha (a PNG would give its alpha).
+    CHECK(set.get_float("f")->evaluate(at_uv(0.5f, 0.5f)) == doctest::Approx(avg).epsilon(2e-3));
+    // "linear" is ignored with a warning: the texels are decoded as sRGB.
+    Rgb c = set.get_spectrum("lin")->evaluate(at_uv(0.5f, 0.5f));
+    CHECK(c.r == doctest::Approx(srgb8(200)).epsilon(2e-3));
+    CHECK(c.b == doctest::Approx(srgb8(50)).epsilon(2e-3));
+    CHECK(warning_count() == before + 1);
+    CHECK(last_warning().find("pbrt-v4 reads this image format as sRGB") != std::string::npos);
 }
