@@ -693,6 +693,12 @@ void Parser::parse(Tokenizer &tok, const std::string &dir, int depth) {
                 throw SceneError(loc, "Option expects exactly one parameter");
             warn(loc, "Option \"" + ps.params[0].name + "\" is not supported; ignored");
         } else if (d == "Include" || d == "Import") {
+            // Include is textual. Import (pbrt-v4) is allowed in the world block only and
+            // brings back the shapes, lights, instances and named entities it declares, not its
+            // graphics state: a transform, material or ReverseOrientation left set at the end of
+            // the imported file does not carry over.
+            const bool import = d == "Import";
+            if (import) require_world(tok, t);
             std::string name = expect_string(tok, d);
             if (depth + 1 > kMaxIncludeDepth)
                 throw SceneError(loc, d + " nested more than " +
@@ -715,7 +721,10 @@ void Parser::parse(Tokenizer &tok, const std::string &dir, int depth) {
             scene_.read_files.push_back(path);
             include_stack_.push_back({id, path});
             Tokenizer sub(std::move(text), path);
+            std::optional<GraphicsState> saved;
+            if (import) saved = state_;
             parse(sub, dir_of(path), depth + 1);
+            if (saved) state_ = std::move(*saved);
             include_stack_.pop_back();
         } else if (d == "MakeNamedMaterial") {
             require_world(tok, t);

@@ -344,6 +344,23 @@ TEST_CASE("Include resolves relative to the main file, then to the including fil
     check_vec(s.shapes[1].render_from_object.point({0, 0, 0}), {1, 0, 0});
     CHECK(s.shapes[1].base_dir == dir.string());
 
+    // Import (pbrt-v4) brings back what it declares but not its graphics state, and is allowed
+    // in the world block only.
+    write_file(dir / "imp.pbrt", "Translate 0 2 0\nMaterial \"conductor\"\nShape \"sphere\"\n"
+                                 "MakeNamedMaterial \"m\" \"string type\" \"diffuse\"\n");
+    write_file(dir / "main_imp.pbrt", "WorldBegin\nImport \"imp.pbrt\"\nShape \"disk\"\n"
+                                      "NamedMaterial \"m\"\nShape \"disk\"\n");
+    SceneDesc im = parse_pbrt_file((dir / "main_imp.pbrt").string());
+    REQUIRE(im.shapes.size() == 3);
+    check_vec(im.shapes[0].render_from_object.point({0, 0, 0}), {0, 2, 0});
+    CHECK(im.shapes[1].render_from_object.is_identity());
+    CHECK(im.shapes[1].material != im.shapes[0].material);
+    CHECK(im.materials.count("m") == 1);
+    write_file(dir / "main_imp_early.pbrt", "Import \"imp.pbrt\"\nWorldBegin\n");
+    CHECK_THROWS_WITH(parse_pbrt_file((dir / "main_imp_early.pbrt").string()),
+                      doctest::Contains("main_imp_early.pbrt:1: Import is only allowed after "
+                                        "WorldBegin"));
+
     // Errors inside an included file name that file and line.
     write_file(dir / "sub" / "bad.pbrt", "\nFoo\n");
     write_file(dir / "main2.pbrt", "WorldBegin\nInclude \"sub/bad.pbrt\"\n");
