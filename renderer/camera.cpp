@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cstdio>
 
+#include "sampling/distribution.h"
 #include "sampling/warp.h"
 
 namespace tessera {
@@ -92,11 +93,15 @@ std::string PixelFilter::describe() const {
 
 PerspectiveCamera::PerspectiveCamera(const Transform &camera_from_world, int width, int height,
                                      float fov_deg, float lens_radius, float focal_distance,
-                                     const float *screen_window, bool orthographic)
+                                     const float *screen_window, bool orthographic,
+                                     SphericalMapping spherical)
     : world_from_camera_(camera_from_world.inverse()),
-      lens_radius_(orthographic ? 0.f : lens_radius),
+      lens_radius_(orthographic || spherical != SphericalMapping::None ? 0.f : lens_radius),
       focal_distance_(focal_distance),
-      orthographic_(orthographic) {
+      orthographic_(orthographic),
+      spherical_(spherical),
+      width_(float(width)),
+      height_(float(height)) {
     // Screen window: the shorter axis spans [-1, 1] (pbrt-v4 CameraBase).
     float aspect = float(width) / float(height);
     float sw[4];
@@ -133,6 +138,50 @@ PerspectiveCamera::PerspectiveCamera(const Transform &camera_from_world, int wid
         if (length_squared(dy) < length_squared(min_dir_dy_)) min_dir_dy_ = dy;
     }
     min_pos_dx_ = min_pos_dy_ = {0, 0, 0};
+    if (spherical_ != SphericalMapping::None) {
+        // The same search over the spherical map's one-pixel direction steps.
+        min_dir_dx_ = min_dir_dy_ = {kInfinity, kInfinity, kInfinity};
+        for (int i = 0; i < n; ++i) {
+            Vec2f pr{(float(i) + 0.5f) / n * width, (float(i) + 0.5f) / n * height};
+            Vec3f d = spherical_direction(pr);
+            // Relative to d as the z axis (approximate_dp_dxy rotates them around w).
+            Frame f = Frame::from_z(d);
+            Vec3f dx = f.to_local(spherical_direction(pr + Vec2f{1, 0})) - Vec3f(0, 0, 1);
+            Vec3f dy = f.to_local(spherical_direction(pr + Vec2f{0, 1})) - Vec3f(0, 0, 1);
+            if (length_squared(dx) > 0 && length_squared(dx) < length_squared(min_dir_dx_))
+                min_dir_dx_ = dx;
+            if (length_squared(dy) > 0 && length_squared(dy) < length_squared(min_dir_dy_))
+                min_dir_dy_ = dy;
+        }
+    }
+}
+
+Vec3f PerspectiveCamera::spherical_direction(Vec2f p_raster) const {
+    Vec2f uv{p_raster.x / width_, p_raster.y / height_};
+    Vec3f dir;
+    if (spherical_ == SphericalMapping::Equirectangular) {
+        const float theta = kPi * uv.y, phi = 2 * kPi * uv.x;
+        dir = {std::sin(theta) * std::cos(phi), std::sin(theta) * std::sin(phi), std::cos(theta)};
+    } else {
+        // pbrt-v4 WrapEqualAreaSquare: mirror across an edge and flip the other coordinate.
+        if (uv.x < 0) {
+            uv.x = -uv.x;
+            uv.y = 1 - uv.y;
+        } else if (uv.x > 1) {
+            uv.x = 2 - uv.x;
+            uv.y = 1 - uv.y;
+        }
+        if (uv.y < 0) {
+            uv.x = 1 - uv.x;
+            uv.y = -uv.y;
+        } else if (uv.y > 1) {
+            uv.x = 1 - uv.x;
+            uv.y = 2 - uv.y;
+        }
+        dir = sampling::equal_area_square_to_sphere(uv);
+    }
+    std::swap(dir.y, dir.z);
+    return dir;
 }
 
 void PerspectiveCamera::set_world_from_camera(const Transform &world_from_camera) {
@@ -179,6 +228,18 @@ CameraRay PerspectiveCamera::generate_ray(Vec2f p_raster, Vec2f u_lens, bool dif
             cr.rx_o = cr.ry_o = cr.ray.o;
             cr.rx_d = normalize(camera_vector_world(fx - o));
             cr.ry_d = normalize(camera_vector_world(fy - o));
+            cr.has_differentials = true;
+        }
+        return cr;
+    }
+    if (spherical_ != SphericalMapping::None) {
+        cr.ray.o = position();
+        cr.ray.d = normalize(camera_vector_world(spherical_direction(p_raster)));
+        if (differentials) {
+            // One-pixel finite differences (pbrt-v4 CameraBase::GenerateRayDifferential).
+            cr.rx_o = cr.ry_o = cr.ray.o;
+            cr.rx_d = normalize(camera_vector_world(spherical_direction(p_raster + Vec2f{1, 0})));
+            cr.ry_d = normalize(camera_vector_world(spherical_direction(p_raster + Vec2f{0, 1})));
             cr.has_differentials = true;
         }
         return cr;

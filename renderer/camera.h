@@ -48,13 +48,20 @@ struct CameraRay {
     bool has_differentials = false;
 };
 
-/// pbrt-v4 "perspective" camera: fov, lensradius, focaldistance, screenwindow, frameaspectratio.
+/// pbrt-v4 "spherical" camera mappings of the film onto the sphere of directions.
+enum class SphericalMapping { None, EqualArea, Equirectangular };
+
+/// pbrt-v4 "perspective" camera: fov, lensradius, focaldistance, screenwindow, frameaspectratio;
+/// also its "orthographic" camera, and its "spherical" camera (every direction from the camera
+/// position: raster (x, y) / film size through the equal-area or equirectangular map, camera
+/// +y toward the top of the map).
 class PerspectiveCamera {
   public:
     /// `camera_from_world` is the CTM at the Camera directive; width/height is the film.
     PerspectiveCamera(const Transform &camera_from_world, int width, int height, float fov_deg,
                       float lens_radius, float focal_distance,
-                      const float *screen_window = nullptr, bool orthographic = false);
+                      const float *screen_window = nullptr, bool orthographic = false,
+                      SphericalMapping spherical = SphericalMapping::None);
     /// Ray through raster position (x, y) in pixels; `u_lens` in [0,1)^2 for depth of field
     /// (ignored when lens_radius() is 0). With `differentials` false the ray differentials are
     /// left unset (has_differentials false): scenes without textures never read them.
@@ -73,6 +80,7 @@ class PerspectiveCamera {
     /// Camera-space direction toward +z transformed to world, normalised (cached per placement).
     Vec3f forward() const { return forward_; }
     bool orthographic() const { return orthographic_; }
+    SphericalMapping spherical() const { return spherical_; }
     /// Approximate position differentials at point p with normal n, for texture filtering
     /// (pbrt-v4 CameraBase::Approximate_dp_dxy), used after the first bounce.
     void approximate_dp_dxy(Vec3f p, Vec3f n, int spp, Vec3f *dpdx, Vec3f *dpdy) const;
@@ -92,6 +100,11 @@ class PerspectiveCamera {
     Vec3f position_, forward_;  ///< see position(), forward()
     float lens_radius_, focal_distance_;
     bool orthographic_ = false;  ///< pbrt-v4 "orthographic": parallel rays along camera +z
+    SphericalMapping spherical_ = SphericalMapping::None;  ///< pbrt-v4 "spherical"
+    float width_ = 1, height_ = 1;                          ///< film size in pixels
+    /// Spherical camera: the camera-space direction of raster point p (pbrt-v4
+    /// SphericalCamera::GenerateRay).
+    Vec3f spherical_direction(Vec2f p_raster) const;
     Vec3f min_pos_dx_, min_pos_dy_, min_dir_dx_, min_dir_dy_;
 };
 

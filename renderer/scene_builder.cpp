@@ -195,14 +195,35 @@ void apply_settings(const SceneDesc &d, const SceneOverrides &ov, Scene &sc) {
     // Camera.
     float fov = 90.f, lens_radius = 0.f, focal_distance = 1e6f;
     bool orthographic = false;
+    SphericalMapping spherical = SphericalMapping::None;
     std::vector<float> sw;
     if (d.camera.present) {
         const ParamSet &cp = d.camera.params;
-        if (d.camera.type != "perspective" && d.camera.type != "orthographic")
+        if (d.camera.type != "perspective" && d.camera.type != "orthographic" &&
+            d.camera.type != "spherical")
             throw SceneError(d.camera.loc, "Camera \"" + d.camera.type +
-                                               "\" is not supported (\"perspective\" and "
-                                               "\"orthographic\" are)");
+                                               "\" is not supported (\"perspective\", "
+                                               "\"orthographic\" and \"spherical\" are)");
         orthographic = d.camera.type == "orthographic";
+        if (d.camera.type == "spherical") {
+            // pbrt-v4 SphericalCamera: "mapping" equalarea (default) or equirectangular; it
+            // reads but does not use the lens and screen parameters.
+            const std::string m = cp.get_string("mapping", "equalarea");
+            if (m == "equalarea")
+                spherical = SphericalMapping::EqualArea;
+            else if (m == "equirectangular")
+                spherical = SphericalMapping::Equirectangular;
+            else
+                throw SceneError(cp.find("mapping")->loc,
+                                 "spherical camera: unknown \"mapping\" \"" + m +
+                                     "\" (equalarea or equirectangular)");
+            if (spherical == SphericalMapping::EqualArea && s.width != s.height)
+                warn(d.camera.loc, "spherical camera: the equal-area mapping expects a square "
+                                   "film; the image is stretched");
+            for (const char *ig : {"fov", "lensradius", "focaldistance", "screenwindow",
+                                   "frameaspectratio"})
+                if (const Param *p = cp.find(ig)) p->used = true;
+        }
         if (!orthographic) fov = cp.get_float("fov", 90.f);
         lens_radius = cp.get_float("lensradius", 0.f);
         if (orthographic && lens_radius > 0)
@@ -228,11 +249,11 @@ void apply_settings(const SceneDesc &d, const SceneOverrides &ov, Scene &sc) {
     sc.camera = std::make_unique<PerspectiveCamera>(d.camera_from_world, s.width, s.height, fov,
                                                     lens_radius, focal_distance,
                                                     sw.empty() ? nullptr : sw.data(),
-                                                    orthographic);
+                                                    orthographic, spherical);
 }
 
-/// A shape's triangles in the target space, or nothing for quadrics/unsupported shapes.
-/// The triangle mesh of a mesh-like shape, or nullopt for other shapes. *face_of_triangle gets
+/// A shape's triangles in the target space, or nullopt for quadrics/unsupported shapes.
+/// *face_of_triangle gets
 /// the face (quad, patch) each triangle was cut from, or stays empty when the faces are the
 /// triangles themselves.
 std::optional<TriangleMesh> triangles_of(const ShapeDesc &sd, const Transform &xf,
