@@ -214,6 +214,8 @@ WhittedIntegrator::WhittedIntegrator(const Scene &scene, const WhittedOptions &o
 float WhittedIntegrator::view_depth(Vec3f p) const {
     const PerspectiveCamera &cam = *scene_.camera;
     if (cam.orthographic()) return 1.f;
+    // A spherical camera looks every way: the distance is its depth.
+    if (cam.spherical() != SphericalMapping::None) return length(p - cam.position());
     return dot(p - cam.position(), cam.forward());
 }
 
