@@ -509,6 +509,115 @@ std::string DiskLight::describe() const {
 }
 
 // ---------------------------------------------------------------------------------------------
+// QuadricAreaLight
+
+QuadricAreaLight::QuadricAreaLight(const Shape &shape, const Transform &render_from_object,
+                                   Rgb radiance, bool twosided)
+    : shape_(shape), xf_(render_from_object), L_(radiance), twosided_(twosided) {
+    const float s = length(xf_.vector({1, 0, 0}));  // uniform scale (checked by the caller)
+    float a = 0;
+    switch (shape_.kind) {
+        case Kind::Sphere:
+        case Kind::Cylinder:  // both r dphi dz (Archimedes for the sphere)
+            a = shape_.phi_max * shape_.radius * (shape_.zmax - shape_.zmin);
+            break;
+        case Kind::Disk:
+            a = 0.5f * shape_.phi_max *
+                (shape_.radius * shape_.radius - shape_.inner_radius * shape_.inner_radius);
+            break;
+    }
+    area_ = std::max(0.f, a) * s * s;
+}
+
+void QuadricAreaLight::sample_point(Vec2f u, Vec3f *p, Vec3f *n) const {
+    const float phi = u.y * shape_.phi_max;
+    const float c = std::cos(phi), sn = std::sin(phi);
+    Vec3f po, no;
+    switch (shape_.kind) {
+        case Kind::Sphere: {
+            const float z = shape_.zmin + u.x * (shape_.zmax - shape_.zmin);
+            const float rxy = safe_sqrt(shape_.radius * shape_.radius - z * z);
+            po = {rxy * c, rxy * sn, z};
+            no = po / shape_.radius;
+            break;
+        }
+        case Kind::Cylinder:
+            po = {shape_.radius * c, shape_.radius * sn,
+                  shape_.zmin + u.x * (shape_.zmax - shape_.zmin)};
+            no = {c, sn, 0};
+            break;
+        case Kind::Disk: {
+            const float ri2 = shape_.inner_radius * shape_.inner_radius;
+            const float r = std::sqrt(ri2 + u.x * (shape_.radius * shape_.radius - ri2));
+            po = {r * c, r * sn, shape_.height};
+            no = {0, 0, 1};
+            break;
+        }
+    }
+    if (shape_.flip_normal) no = -no;
+    *p = xf_.point(po);
+    *n = normalize(xf_.normal(no));
+}
+
+Vec3f QuadricAreaLight::emitting_normal(Vec3f p_world) const {
+    Vec3f po = xf_.inverse_point(p_world);
+    Vec3f no = shape_.kind == Kind::Sphere     ? po
+               : shape_.kind == Kind::Cylinder ? Vec3f(po.x, po.y, 0.f)
+                                               : Vec3f(0, 0, 1);
+    if (shape_.flip_normal) no = -no;
+    return normalize(xf_.normal(no));
+}
+
+std::optional<LightLiSample> QuadricAreaLight::sample_li(const LightSampleContext &ctx,
+                                                         Vec2f u) const {
+    if (!(area_ > 0.f))
+        return std::nullopt;
+    Vec3f p, n;
+    sample_point(u, &p, &n);
+    float d2;
+    std::optional<LightLiSample> s = sample_toward(ctx, p, &d2);
+    if (!s)
+        return std::nullopt;
+    const float cos_l = absdot(n, s->wi);
+    if (cos_l == 0.f)
+        return std::nullopt;
+    s->pdf = d2 / (area_ * cos_l);
+    if (!std::isfinite(s->pdf))
+        return std::nullopt;
+    if (!twosided_ && dot(n, s->wi) >= 0.f)
+        return std::nullopt;
+    s->L = L_;
+    if (s->L.is_black())
+        return std::nullopt;
+    s->n_light = face_forward(n, -s->wi);
+    return s;
+}
+
+float QuadricAreaLight::pdf_li(const LightSampleContext &ctx, Vec3f, Vec3f p_light,
+                               Vec3f) const {
+    if (!(area_ > 0.f))
+        return 0.f;
+    return area_to_solid_angle_pdf(1.f / area_, ctx.p, p_light, emitting_normal(p_light));
+}
+
+Rgb QuadricAreaLight::L(Vec3f p_light, Vec3f, Vec2f, Vec3f w_out) const {
+    if (!twosided_ && dot(emitting_normal(p_light), w_out) <= 0.f)
+        return Rgb(0.f);
+    return L_;
+}
+
+Rgb QuadricAreaLight::phi() const {
+    return L_ * (kPi * area_ * (twosided_ ? 2.f : 1.f));
+}
+
+std::string QuadricAreaLight::describe() const {
+    const char *names[] = {"sphere", "cylinder", "disk"};
+    return std::string("QuadricAreaLight ") + names[int(shape_.kind)] +
+           " area=" + std::to_string(area_) + " L=" + rgb_str(L_) +
+           (twosided_ ? " twosided" : "");
+}
+
+// ---------------------------------------------------------------------------------------------
 // Image reading
 
 std::vector<Rgb> read_rgb_image(const std::string &path, const FileLoc &loc, int *width,

@@ -347,6 +347,44 @@ class DiskLight final : public Light {
     bool twosided_;
 };
 
+/// Diffuse emitter on a cylinder, a partial sphere or a partial disk / annulus (pbrt-v4
+/// DiffuseAreaLight on those shapes), sampled uniformly by area -- exactly: each surface has a
+/// constant area element in (z, phi) (sphere, cylinder) or (r^2, phi) (disk). Full spheres and
+/// full disks use SphereLight and DiskLight. `render_from_object` must scale uniformly (the
+/// caller checks); the emitting side is the outward normal, inward when `flip_normal`.
+class QuadricAreaLight final : public Light {
+  public:
+    enum class Kind { Sphere, Cylinder, Disk };
+    struct Shape {
+        Kind kind = Kind::Cylinder;
+        float radius = 1, zmin = -1, zmax = 1, phi_max = 2 * kPi;  ///< sphere, cylinder
+        float inner_radius = 0, height = 0;                        ///< disk
+        bool flip_normal = false;
+    };
+    QuadricAreaLight(const Shape &shape, const Transform &render_from_object, Rgb radiance,
+                     bool twosided = false);
+    LightType type() const override { return area_type(); }
+    std::optional<LightLiSample> sample_li(const LightSampleContext &ctx, Vec2f u) const override;
+    /// The emitting normal is recomputed from p_light (n_light is not needed).
+    float pdf_li(const LightSampleContext &ctx, Vec3f wi, Vec3f p_light,
+                 Vec3f n_light) const override;
+    Rgb L(Vec3f p_light, Vec3f n_light, Vec2f uv, Vec3f w_out) const override;
+    Rgb phi() const override;
+    std::string describe() const override;
+    /// World-space area.
+    float area() const { return area_; }
+    /// The point for u in [0,1)^2 (uniform by area) and its emitting normal, world space.
+    void sample_point(Vec2f u, Vec3f *p, Vec3f *n) const;
+
+  private:
+    Vec3f emitting_normal(Vec3f p_world) const;
+    Shape shape_;
+    Transform xf_;
+    float area_;
+    Rgb L_;
+    bool twosided_;
+};
+
 /// Builds a light from a `LightSource` directive: "point", "spot", "distant", "infinite" (with
 /// "L", with "filename", or neither: the colour space's illuminant, RGB (1,1,1)). Parameters,
 /// defaults and the "power"/"illuminance" normalisations are pbrt-v4's. "goniometric" and

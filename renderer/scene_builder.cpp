@@ -550,35 +550,45 @@ struct Builder {
 
     /// `sample_only`: the shape is invisible (constant alpha 0); its light is sample-only.
     void add_quadric_light(const ShapeDesc &sd, Quadric &q, bool sample_only) {
-        if (q.kind == Quadric::Kind::Cylinder) {
-            warn(sd.area_light_loc,
-                 "area lights on cylinders are not supported; the shape does not emit");
-            return;
-        }
         const Transform &xf = q.render_from_object;
-        // Only similarity transforms keep spheres/disks round: check the scale factors.
+        // Only similarity transforms keep quadrics round: check the scale factors.
         Vec3f ex = xf.vector({1, 0, 0}), ey = xf.vector({0, 1, 0}), ez = xf.vector({0, 0, 1});
         float sx = length(ex), sy = length(ey), sz = length(ez);
         bool uniform = std::abs(sx - sy) < 1e-4f * sx && std::abs(sx - sz) < 1e-4f * sx;
-        bool full = q.phi_max >= 2 * kPi - 1e-6f &&
+        if (!uniform) {
+            warn(sd.area_light_loc, "area lights on non-uniformly scaled " + sd.type +
+                                        "s are not supported; the shape does not emit");
+            return;
+        }
+        bool full = q.kind != Quadric::Kind::Cylinder && q.phi_max >= 2 * kPi - 1e-6f &&
                     (q.kind == Quadric::Kind::Disk
                          ? q.inner_radius == 0.f
                          : (q.zmin <= -q.radius && q.zmax >= q.radius));
-        if (!uniform || !full) {
-            warn(sd.area_light_loc,
-                 "area lights on partial or non-uniformly scaled " + sd.type +
-                     "s are not supported; the shape does not emit");
-            return;
-        }
         float r = q.radius * sx;
-        // pbrt-v4's Sphere::Area()/Disk::Area() are object-space: "power" ignores the scale.
-        float area = q.kind == Quadric::Kind::Sphere ? 4 * kPi * q.radius * q.radius
-                                                     : kPi * q.radius * q.radius;
+        // pbrt-v4's Shape::Area() is object-space: "power" ignores the scale.
+        const float dz = q.zmax - q.zmin;
+        float area = q.kind == Quadric::Kind::Disk
+                         ? 0.5f * q.phi_max * (q.radius * q.radius - q.inner_radius * q.inner_radius)
+                         : q.phi_max * q.radius * dz;  // sphere (Archimedes) and cylinder
         AreaEmission em = make_area_emission(*sd.area_light, sd.area_light_loc, area);
         sd.area_light->report_unused("AreaLightSource");
         if (em.L.is_black()) return;
         std::unique_ptr<Light> light;
-        if (q.kind == Quadric::Kind::Sphere) {
+        if (!full) {
+            // Cylinders, partial spheres, annuli and disk sectors: uniform area sampling.
+            QuadricAreaLight::Shape shape;
+            shape.kind = q.kind == Quadric::Kind::Sphere     ? QuadricAreaLight::Kind::Sphere
+                         : q.kind == Quadric::Kind::Cylinder ? QuadricAreaLight::Kind::Cylinder
+                                                             : QuadricAreaLight::Kind::Disk;
+            shape.radius = q.radius;
+            shape.zmin = q.zmin;
+            shape.zmax = q.zmax;
+            shape.phi_max = q.phi_max;
+            shape.inner_radius = q.inner_radius;
+            shape.height = q.height;
+            shape.flip_normal = q.flip_normal;
+            light = std::make_unique<QuadricAreaLight>(shape, xf, em.L, em.twosided);
+        } else if (q.kind == Quadric::Kind::Sphere) {
             light = std::make_unique<SphereLight>(xf.point({0, 0, 0}), r, em.L, q.flip_normal,
                                                   em.twosided);
         } else {

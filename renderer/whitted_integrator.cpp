@@ -164,10 +164,18 @@ WhittedIntegrator::WhittedIntegrator(const Scene &scene, const WhittedOptions &o
                 if (it == index.end())
                     continue;
                 LightProxy &lp = lights_[it->second];
-                // As scene_builder.cpp: emitting quadrics are full and uniformly scaled.
+                // As scene_builder.cpp: emitting quadrics are uniformly scaled; full spheres
+                // and disks have SphereLight and DiskLight, the others QuadricAreaLight.
                 const Transform &xf = q.render_from_object;
                 float r = q.radius * length(xf.vector({1, 0, 0}));
-                if (q.kind == Quadric::Kind::Sphere) {
+                if (const auto *ql = dynamic_cast<const QuadricAreaLight *>(q.light)) {
+                    // Cylinders and partial quadrics: one light sample (the proxy's "Delta"
+                    // path calls sample_li), and the emission at that sample's point.
+                    lp.kind = LightProxy::Kind::Delta;
+                    Vec3f p, n;
+                    ql->sample_point({0.5f, 0.5f}, &p, &n);
+                    emissions_.push_back(emission(lp.light, s.object_id, p, n));
+                } else if (q.kind == Quadric::Kind::Sphere) {
                     lp.kind = LightProxy::Kind::Sphere;
                     lp.p = xf.point({0, 0, 0});
                     lp.radius = r;

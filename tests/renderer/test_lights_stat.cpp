@@ -19,7 +19,7 @@ using tessera::test::Chi2Options;
 
 namespace {
 
-constexpr int kNumChi2Tests = 8;
+constexpr int kNumChi2Tests = 11;
 
 Chi2Options options(uint64_t seed) {
     Chi2Options o;
@@ -85,6 +85,54 @@ std::optional<Hit> hit_disk(Vec3f o, Vec3f w, Vec3f c, Vec3f n, float r) {
     if (length_squared(p - c) > r * r)
         return std::nullopt;
     return Hit{p, n};
+}
+
+/// First hit of a ray with a QuadricAreaLight's shape (in object space through `xf`), with its
+/// emitting normal.
+std::optional<Hit> hit_quadric(Vec3f o_w, Vec3f w_w, const Transform &xf,
+                               const QuadricAreaLight::Shape &q) {
+    Vec3f o = xf.inverse_point(o_w), d = xf.inverse_point(o_w + w_w) - o;
+    auto phi_ok = [&](double x, double y) {
+        double phi = std::atan2(y, x);
+        if (phi < 0) phi += 2 * M_PI;
+        return phi <= q.phi_max;
+    };
+    double best = -1;
+    Vec3f n_obj;
+    if (q.kind == QuadricAreaLight::Kind::Disk) {
+        if (d.z != 0) {
+            double t = (q.height - o.z) / d.z;
+            double x = o.x + t * d.x, y = o.y + t * d.y, r2 = x * x + y * y;
+            if (t > 0 && r2 <= double(q.radius) * q.radius &&
+                r2 >= double(q.inner_radius) * q.inner_radius && phi_ok(x, y)) {
+                best = t;
+                n_obj = {0, 0, 1};
+            }
+        }
+    } else {
+        const bool sphere = q.kind == QuadricAreaLight::Kind::Sphere;
+        double a = d.x * d.x + d.y * d.y + (sphere ? d.z * d.z : 0.0);
+        double b = 2 * (d.x * o.x + d.y * o.y + (sphere ? d.z * o.z : 0.0));
+        double c = o.x * o.x + o.y * o.y + (sphere ? o.z * o.z : 0.0) - double(q.radius) * q.radius;
+        double disc = b * b - 4 * a * c;
+        if (a > 0 && disc >= 0) {
+            double sq = std::sqrt(disc);
+            for (double t : {(-b - sq) / (2 * a), (-b + sq) / (2 * a)}) {
+                double x = o.x + t * d.x, y = o.y + t * d.y, z = o.z + t * d.z;
+                if (t > 0 && z >= q.zmin && z <= q.zmax && phi_ok(x, y)) {
+                    best = t;
+                    n_obj = sphere ? Vec3f(float(x), float(y), float(z)) : Vec3f(float(x), float(y), 0);
+                    break;
+                }
+            }
+        }
+    }
+    if (best < 0)
+        return std::nullopt;
+    Vec3f p_obj = o + d * float(best);
+    if (q.flip_normal)
+        n_obj = -n_obj;
+    return Hit{xf.point(p_obj), normalize(xf.normal(n_obj))};
 }
 
 /// Runs the chi-square test of `light` seen from ctx, then checks that pdf_li at every sampled
@@ -209,6 +257,55 @@ TEST_CASE("disk light: area sampling (chi-square)") {
     check_light(
         "disk_light", light, {{0.3f, 0, 0}, {0, 0, 1}},
         [&](Vec3f o, Vec3f w) { return hit_disk(o, w, c, n, 1.5f); }, 35, options(35));
+}
+
+TEST_CASE("cylinder, partial sphere and annulus lights: area sampling (chi-square)") {
+    // Rotated, moved and uniformly scaled, so that sampling and pdf agree on the transform.
+    const Transform xf = Transform::translate({0.3f, -0.2f, 0.5f}) *
+                         Transform::rotate(35, normalize(Vec3f(1, 0.5f, 0.2f))) *
+                         Transform::scale(1.5f, 1.5f, 1.5f);
+    // Seen from inside, emitting inward: every direction meets the surface at most once.
+    QuadricAreaLight::Shape cyl;
+    cyl.kind = QuadricAreaLight::Kind::Cylinder;
+    cyl.radius = 0.8f;
+    cyl.zmin = -0.6f;
+    cyl.zmax = 1.1f;
+    cyl.phi_max = radians(300);
+    cyl.flip_normal = true;
+    QuadricAreaLight cyl_light(cyl, xf, Rgb(1.f));
+    const Vec3f inside = xf.point({0.1f, -0.2f, 0.2f});
+    check_light(
+        "cylinder_light", cyl_light, {inside, {}},
+        [&](Vec3f o, Vec3f w) { return hit_quadric(o, w, xf, cyl); }, 40, options(40));
+
+    QuadricAreaLight::Shape sph;
+    sph.kind = QuadricAreaLight::Kind::Sphere;
+    sph.radius = 1.f;
+    sph.zmin = -0.5f;
+    sph.zmax = 0.9f;
+    sph.phi_max = radians(250);
+    sph.flip_normal = true;
+    QuadricAreaLight sph_light(sph, xf, Rgb(1.f));
+    check_light(
+        "partial_sphere_light", sph_light, {inside, {}},
+        [&](Vec3f o, Vec3f w) { return hit_quadric(o, w, xf, sph); }, 41, options(41));
+
+    // An annulus sector seen from above its emitting side.
+    QuadricAreaLight::Shape disk;
+    disk.kind = QuadricAreaLight::Kind::Disk;
+    disk.radius = 1.2f;
+    disk.inner_radius = 0.4f;
+    disk.height = 0.3f;
+    disk.phi_max = radians(200);
+    QuadricAreaLight disk_light(disk, xf, Rgb(1.f));
+    check_light(
+        "annulus_light", disk_light, {xf.point({0.2f, 0.1f, 1.5f}), {}},
+        [&](Vec3f o, Vec3f w) { return hit_quadric(o, w, xf, disk); }, 42, options(42));
+    // Areas: 1.5^2 times phi_max r (zmax - zmin), and phi_max / 2 (ro^2 - ri^2).
+    CHECK(cyl_light.area() == doctest::Approx(2.25 * radians(300) * 0.8 * 1.7).epsilon(1e-5));
+    CHECK(sph_light.area() == doctest::Approx(2.25 * radians(250) * 1.0 * 1.4).epsilon(1e-5));
+    CHECK(disk_light.area() ==
+          doctest::Approx(2.25 * 0.5 * radians(200) * (1.44 - 0.16)).epsilon(1e-5));
 }
 
 TEST_CASE("uniform infinite light (chi-square)") {
