@@ -35,14 +35,18 @@ bool intersect_quadric(const Quadric &q, Vec3d o_world, Vec3d d_world, double t_
     const Mat4 &inv = q.render_from_object.inverse_matrix();
     Vec3d o = to_object(inv, o_world, true);
     Vec3d d = to_object(inv, d_world, false);
-    if (q.kind == Quadric::Kind::Sphere) {
+    if (q.kind == Quadric::Kind::Sphere || q.kind == Quadric::Kind::Cylinder) {
+        // x^2 + y^2 + k z^2 = r^2: the sphere (k = 1) or the cylinder (k = 0).
+        const bool sphere = q.kind == Quadric::Kind::Sphere;
+        const double k = sphere ? 1.0 : 0.0;
         double r = q.radius;
-        double a = d.x * d.x + d.y * d.y + d.z * d.z;
-        double b = 2 * (d.x * o.x + d.y * o.y + d.z * o.z);
-        double c = o.x * o.x + o.y * o.y + o.z * o.z - r * r;
+        double a = d.x * d.x + d.y * d.y + k * d.z * d.z;
+        if (a == 0) return false;  // a cylinder's axis direction
+        double b = 2 * (d.x * o.x + d.y * o.y + k * d.z * o.z);
+        double c = o.x * o.x + o.y * o.y + k * o.z * o.z - r * r;
         // Numerically stable discriminant (pbrt-v4 6.2.2): b^2 - 4ac = 4a (r^2 - |o - (b/2a) d|^2 ...)
         double f = b / (2 * a);
-        Vec3d vp{o.x - f * d.x, o.y - f * d.y, o.z - f * d.z};
+        Vec3d vp{o.x - f * d.x, o.y - f * d.y, k * (o.z - f * d.z)};
         double len2 = vp.x * vp.x + vp.y * vp.y + vp.z * vp.z;
         double disc = 4 * a * (r * r - len2);
         if (disc < 0) return false;
@@ -50,44 +54,16 @@ bool intersect_quadric(const Quadric &q, Vec3d o_world, Vec3d d_world, double t_
         double qq = b < 0 ? -0.5 * (b - root) : -0.5 * (b + root);
         double t0 = qq / a, t1 = c / qq;
         if (t0 > t1) std::swap(t0, t1);
+        // Clipping: a partial sphere by z and phi; a cylinder always by z, by phi if partial.
+        const bool partial_sphere = sphere && (q.zmin > -r || q.zmax < r || q.phi_max < 2 * kPi);
+        const bool clip_z = !sphere || partial_sphere;
+        const bool clip_phi = partial_sphere || (!sphere && q.phi_max < 2 * kPi);
         for (double t : {t0, t1}) {
             if (!(t > t_min && t < t_max)) continue;
             double px = o.x + t * d.x, py = o.y + t * d.y, pz = o.z + t * d.z;
-            // Partial spheres: clip by z range and phi.
-            bool partial = q.zmin > -r || q.zmax < r || q.phi_max < 2 * kPi;
-            if (partial) {
-                if (pz < q.zmin || pz > q.zmax) continue;
+            if (clip_z && (pz < q.zmin || pz > q.zmax)) continue;
+            if (clip_phi) {
                 double phi = std::atan2(py, px);
-                if (phi < 0) phi += 2 * M_PI;
-                if (phi > q.phi_max) continue;
-            }
-            *t_hit = t;
-            return true;
-        }
-        return false;
-    }
-    if (q.kind == Quadric::Kind::Cylinder) {
-        // x^2 + y^2 = r^2 with the stable discriminant of pbrt-v4 Cylinder::BasicIntersect.
-        double r = q.radius;
-        double a = d.x * d.x + d.y * d.y;
-        if (a == 0) return false;  // parallel to the axis
-        double b = 2 * (d.x * o.x + d.y * o.y);
-        double c = o.x * o.x + o.y * o.y - r * r;
-        double f = b / (2 * a);
-        double vx = o.x - f * d.x, vy = o.y - f * d.y;
-        double len = std::sqrt(vx * vx + vy * vy);
-        double disc = 4 * a * (r + len) * (r - len);
-        if (disc < 0) return false;
-        double root = std::sqrt(disc);
-        double qq = b < 0 ? -0.5 * (b - root) : -0.5 * (b + root);
-        double t0 = qq / a, t1 = c / qq;
-        if (t0 > t1) std::swap(t0, t1);
-        for (double t : {t0, t1}) {
-            if (!(t > t_min && t < t_max)) continue;
-            double pz = o.z + t * d.z;
-            if (pz < q.zmin || pz > q.zmax) continue;
-            if (q.phi_max < 2 * kPi) {
-                double phi = std::atan2(o.y + t * d.y, o.x + t * d.x);
                 if (phi < 0) phi += 2 * M_PI;
                 if (phi > q.phi_max) continue;
             }

@@ -4,11 +4,13 @@
 #include <string>
 #include <vector>
 
+#include "renderer/path_integrator.h"
 #include "renderer/pbrt_parser.h"
 #include "renderer/render.h"
 #include "renderer/scene.h"
 #include "sampling/film.h"
 #include "sampling/image_metrics.h"
+#include "scheduler/adaptive_scheduler.h"
 
 namespace tessera::test {
 
@@ -41,6 +43,20 @@ inline sampling::RgbImage render_image(const Scene &scene, uint32_t threads = 0,
     sampling::Film film(uint32_t(scene.settings.width), uint32_t(scene.settings.height));
     sched::AdaptiveStats s = render_scene(scene, film, threads, 0.0, true, nullptr);
     if (stats) *stats = s;
+    return sampling::RgbImage(film.width(), film.height(), film.beauty_rgb());
+}
+
+/// Renders a scene with the path tracer and one direct-lighting strategy (uniform sampling,
+/// the given seed): light-only, BSDF-only and MIS renders must agree within noise.
+inline sampling::RgbImage render_with_strategy(const Scene &scene, DirectStrategy strategy,
+                                               uint32_t seed) {
+    PathIntegrator integ(scene, seed, scene.settings.max_depth, strategy);
+    sampling::Film film(uint32_t(scene.settings.width), uint32_t(scene.settings.height));
+    SamplerSpec uniform;
+    uniform.name = "uniform";
+    sched::AdaptiveOptions so = scheduler_options(scene, uniform, 0, true);
+    so.seed = seed;
+    sched::AdaptiveScheduler(integ, film, so).render();
     return sampling::RgbImage(film.width(), film.height(), film.beauty_rgb());
 }
 

@@ -6,8 +6,6 @@
 
 #include "render_test_util.h"
 #include "renderer/geometry.h"
-#include "renderer/path_integrator.h"
-#include "scheduler/adaptive_scheduler.h"
 
 using namespace tessera;
 
@@ -130,21 +128,6 @@ Shape "cylinder" "float radius" [ 0.4 ] "float zmin" [ -0.5 ] "float zmax" [ 0.5
     CHECK(img.data[corner] == doctest::Approx(1.f).epsilon(1e-4));
 }
 
-namespace {
-
-sampling::RgbImage render_strategy(const Scene &scene, DirectStrategy strategy) {
-    PathIntegrator integ(scene, 5, scene.settings.max_depth, strategy);
-    sampling::Film film(uint32_t(scene.settings.width), uint32_t(scene.settings.height));
-    SamplerSpec uniform;
-    uniform.name = "uniform";
-    sched::AdaptiveOptions so = scheduler_options(scene, uniform, 0, true);
-    so.seed = 5;
-    sched::AdaptiveScheduler(integ, film, so).render();
-    return sampling::RgbImage(film.width(), film.height(), film.beauty_rgb());
-}
-
-}  // namespace
-
 TEST_CASE("cylinder emitter (and a partial sphere): light, BSDF and MIS estimates agree") {
     // A diffuse floor lit by an emissive open cylinder standing on it and by a hemisphere
     // (partial sphere) above: both use QuadricAreaLight (uniform area sampling). The camera
@@ -170,9 +153,9 @@ Shape "sphere" "float radius" [ 0.4 ] "float zmin" [ 0 ]
 AttributeEnd
 )");
     REQUIRE(sc);
-    sampling::RgbImage mis = render_strategy(*sc, DirectStrategy::Mis);
-    sampling::RgbImage light = render_strategy(*sc, DirectStrategy::LightOnly);
-    sampling::RgbImage bsdf = render_strategy(*sc, DirectStrategy::BsdfOnly);
+    sampling::RgbImage mis = test::render_with_strategy(*sc, DirectStrategy::Mis, 5);
+    sampling::RgbImage light = test::render_with_strategy(*sc, DirectStrategy::LightOnly, 5);
+    sampling::RgbImage bsdf = test::render_with_strategy(*sc, DirectStrategy::BsdfOnly, 5);
     for (int c = 0; c < 3; ++c) {
         double m = test::image_mean(mis, c), l = test::image_mean(light, c),
                b = test::image_mean(bsdf, c);

@@ -119,14 +119,7 @@ AttributeEnd
 )";
 
 sampling::RgbImage render_with(const Scene &scene, DirectStrategy strategy) {
-    PathIntegrator integ(scene, 7, scene.settings.max_depth, strategy);
-    sampling::Film film(uint32_t(scene.settings.width), uint32_t(scene.settings.height));
-    SamplerSpec uniform;
-    uniform.name = "uniform";
-    sched::AdaptiveOptions so = scheduler_options(scene, uniform, 0, true);
-    so.seed = 7;
-    sched::AdaptiveScheduler(integ, film, so).render();
-    return sampling::RgbImage(film.width(), film.height(), film.beauty_rgb());
+    return render_with_strategy(scene, strategy, 7);
 }
 
 }  // namespace
