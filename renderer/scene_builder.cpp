@@ -253,9 +253,8 @@ void apply_settings(const SceneDesc &d, const SceneOverrides &ov, Scene &sc) {
 }
 
 /// A shape's triangles in the target space, or nullopt for quadrics/unsupported shapes.
-/// *face_of_triangle gets
-/// the face (quad, patch) each triangle was cut from, or stays empty when the faces are the
-/// triangles themselves.
+/// *face_of_triangle gets the face (quad, patch) each triangle was cut from, or stays empty
+/// when the faces are the triangles themselves.
 std::optional<TriangleMesh> triangles_of(const ShapeDesc &sd, const Transform &xf,
                                          std::vector<uint32_t> *face_of_triangle) {
     const ParamSet &ps = sd.params;

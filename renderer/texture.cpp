@@ -498,7 +498,6 @@ struct PreparedImage {
     int channels = 1;
 };
 
-/// Linearises `path` into a cached mipmapped texture unless it already is a linear one.
 /// True for the 8-bit formats pbrt-v4 reads through stb_image (every extension but exr, png,
 /// pfm, hdr and qoi; tiff is not one of them: stb cannot read it, so Tessera's own rules apply).
 /// pbrt-v4 tags those images sRGB whatever "encoding" says and drops their alpha.
@@ -511,6 +510,7 @@ bool read_by_pbrt_as_srgb_rgb(const std::string &path) {
     return false;
 }
 
+/// Linearises `path` into a cached mipmapped texture unless it already is a linear one.
 /// `scalar`: a float texture. `first_channel`: its lookups read channel 0 of a colour image
 /// (pbrt-v4's "point" and "ewa" filters, MIPMap::Texel<Float>) instead of the RGB average.
 PreparedImage prepare_image(const std::string &path, const std::string &encoding_param,
