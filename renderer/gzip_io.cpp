@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cctype>
 #include <filesystem>
+#include <memory>
 
 #include "renderer/limits.h"
 
@@ -30,7 +31,9 @@ std::string read_gzip_file(const std::string &path, std::string *out, uint64_t m
     if (fs::is_directory(st)) return "is a directory, not a file";
     // Only regular files: a FIFO or a device would never end.
     if (!fs::is_regular_file(st)) return "is not a regular file";
-    gzFile f = gzopen(path.c_str(), "rb");
+    // Closed on every way out, a bad_alloc from the growing string included.
+    std::unique_ptr<gzFile_s, int (*)(gzFile)> file(gzopen(path.c_str(), "rb"), gzclose);
+    gzFile f = file.get();
     if (!f) return "cannot be opened";
     gzbuffer(f, 1u << 17);
     out->clear();
@@ -62,7 +65,6 @@ std::string read_gzip_file(const std::string &path, std::string *out, uint64_t m
               (err == Z_BUF_ERROR ? "truncated: unexpected end of file"
                                   : (err == Z_ERRNO ? "read error" : msg)) +
               ")";
-    gzclose(f);
     return why;
 }
 

@@ -99,9 +99,11 @@ CameraRay PathIntegrator::camera_ray(const CameraSample &cs,
 
 Sample PathIntegrator::to_sample(const PathResult &r) const {
     Sample s;
-    s.radiance = scene_.settings.to_film(r.L);
+    // pbrt-v4 RGBFilm: the sensor scale, the maxcomponentvalue clamp, then the white balance.
+    s.radiance = r.L * scene_.settings.image_scale;
     float m = s.radiance.max_value();
     if (m > scene_.settings.max_component) s.radiance *= scene_.settings.max_component / m;
+    s.radiance = scene_.settings.balance(s.radiance);
     s.albedo = r.albedo;
     s.normal = r.normal;
     s.depth = r.depth;

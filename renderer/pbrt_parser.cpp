@@ -722,9 +722,13 @@ void Parser::parse(Tokenizer &tok, const std::string &dir, int depth) {
             include_stack_.push_back({id, path});
             Tokenizer sub(std::move(text), path);
             std::optional<GraphicsState> saved;
+            const bool saved_active_start = active_start_;
             if (import) saved = state_;
             parse(sub, dir_of(path), depth + 1);
-            if (saved) state_ = std::move(*saved);
+            if (saved) {
+                state_ = std::move(*saved);
+                active_start_ = saved_active_start;  // ActiveTransform is state too
+            }
             include_stack_.pop_back();
         } else if (d == "MakeNamedMaterial") {
             require_world(tok, t);

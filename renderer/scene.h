@@ -45,17 +45,21 @@ struct RenderSettings {
     /// pbrt-v4 sensor imaging ratio: (shutterclose - shutteropen) * Film "iso" / 100.
     float image_scale = 1.f;
     /// Film "whitebalance" (pbrt-v4 PixelSensor): a linear-sRGB matrix (row-major) applied to
-    /// every sample after image_scale when `white_balanced`.
+    /// every sample when `white_balanced`. pbrt-v4's RGBFilm clamps a sample to
+    /// maxcomponentvalue first and white-balances when it writes the pixel; the path tracer
+    /// does the same (scale, clamp, balance).
     bool white_balanced = false;
     std::array<float, 9> white_balance{1, 0, 0, 0, 1, 0, 0, 0, 1};
-    /// Radiance in film units: image_scale, then the white balance.
-    Rgb to_film(Rgb L) const {
-        L *= image_scale;
+    /// The white balance alone (the identity unless `white_balanced`).
+    Rgb balance(Rgb L) const {
         if (!white_balanced) return L;
         const std::array<float, 9> &m = white_balance;
         return {m[0] * L.r + m[1] * L.g + m[2] * L.b, m[3] * L.r + m[4] * L.g + m[5] * L.b,
                 m[6] * L.r + m[7] * L.g + m[8] * L.b};
     }
+    /// Radiance in film units before the clamp: image_scale, then the white balance (the
+    /// Whitted real-time integrator, which clamps after it).
+    Rgb to_film(Rgb L) const { return balance(L * image_scale); }
     /// Film "maxcomponentvalue": a sample's RGB is scaled down so its largest component is at
     /// most this (pbrt-v4 RGBFilm::AddSample); +inf = off.
     float max_component = kInfinity;

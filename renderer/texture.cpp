@@ -550,7 +550,7 @@ PreparedImage prepare_image(const std::string &path, const std::string &encoding
     // Which channel a scalar texture reads: alpha (when not all 1, and the format keeps it),
     // channel 0, or the RGB average.
     const bool keep_alpha = !stb_rules && !first_channel;
-    std::string key = "tessera-texcache-v1|" + std::to_string(file_hash(path, loc)) + "|" +
+    std::string key = "tessera-texcache-v2|" + std::to_string(file_hash(path, loc)) + "|" +
                       enc.name() + "|" + std::to_string(out_channels) +
                       (scalar_from_colour
                            ? (first_channel ? "|scalar-ch0" : (keep_alpha ? "|scalar" : "|scalar-rgb"))

@@ -358,7 +358,9 @@ Rgb WhittedIntegrator::local_shading(const ShadePoint &sp, const Bsdf *bsdf,
                     skip();
                     continue;
                 }
-                Li = ls->L;
+                // pdf 1 for point, spot and distant lights; an area light reached this way
+                // (sample-only, or a QuadricAreaLight) gives radiance over its solid-angle pdf.
+                Li = ls->pdf > 0.f ? ls->L / ls->pdf : Rgb(0.f);
                 target = ls->p_light;
                 directional = lp.light->type() == LightType::DeltaDirection;
                 break;

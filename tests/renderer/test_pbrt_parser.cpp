@@ -356,6 +356,14 @@ TEST_CASE("Include resolves relative to the main file, then to the including fil
     CHECK(im.shapes[1].render_from_object.is_identity());
     CHECK(im.shapes[1].material != im.shapes[0].material);
     CHECK(im.materials.count("m") == 1);
+    // ActiveTransform is graphics state too: an imported "ActiveTransform EndTime" must not
+    // make the parent drop its later transforms.
+    write_file(dir / "imp_active.pbrt", "ActiveTransform EndTime\n");
+    write_file(dir / "main_imp_active.pbrt",
+               "WorldBegin\nImport \"imp_active.pbrt\"\nTranslate 0 0 3\nShape \"disk\"\n");
+    SceneDesc ia = parse_pbrt_file((dir / "main_imp_active.pbrt").string());
+    REQUIRE(ia.shapes.size() == 1);
+    check_vec(ia.shapes[0].render_from_object.point({0, 0, 0}), {0, 0, 3});
     write_file(dir / "main_imp_early.pbrt", "Import \"imp.pbrt\"\nWorldBegin\n");
     CHECK_THROWS_WITH(parse_pbrt_file((dir / "main_imp_early.pbrt").string()),
                       doctest::Contains("main_imp_early.pbrt:1: Import is only allowed after "
