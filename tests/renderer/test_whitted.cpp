@@ -251,56 +251,54 @@ TEST_CASE("whitted: distant light gives constant albedo/pi L cos") {
         }
 }
 
-TEST_CASE("whitted: triangle area light as a point-like emitter at its centroid") {
-    // A small one-sided triangle facing down at height 2: E = L A cos_l cos_s / d^2.
+namespace {
+
+/// A small one-sided triangle emitter (L = 10, area 0.02) facing down at height 2 above the
+/// floor, with `extra` shape parameters. Returns, for three floor pixels, Whitted's radiance
+/// next to the point-like-emitter value at its centroid, E = L A cos_l cos_s / d^2; checks that
+/// each pixel sees the floor, and that the emitter is shape 0 when `visible`.
+std::vector<std::pair<Rgb, Rgb>> small_triangle_light(const std::string &extra, bool visible) {
     auto scene =
         scene_from_string(floor_scene("AttributeBegin\n"
                                       "AreaLightSource \"diffuse\" \"rgb L\" [10 10 10]\n"
                                       "Shape \"trianglemesh\" \"point3 P\" [0 2 0  0.2 2 0  0 2 "
-                                      "0.2] \"integer indices\" [0 1 2]\n"
-                                      "AttributeEnd\n"));
+                                      "0.2] \"integer indices\" [0 1 2] " +
+                                      extra + "\nAttributeEnd\n"));
     WhittedIntegrator w(*scene);
     const Vec3f c{0.2f / 3, 2.f, 0.2f / 3};
     const float area = 0.02f;
+    std::vector<std::pair<Rgb, Rgb>> out;
     for (uint32_t px : {3u, 16u, 27u}) {
         Sample s = w.evaluate(sample_at(px, 10));
         REQUIRE(s.first_hit);
         Vec3f p = s.first_hit->primary.position;
-        REQUIRE(std::abs(p.y) < 1e-5f);              // the floor, not the emitter
-        CHECK(s.first_hit->primary.object_id == 1);  // the emitter is shape 0
+        REQUIRE(std::abs(p.y) < 1e-5f);  // the floor, not the emitter
+        if (visible) CHECK(s.first_hit->primary.object_id == 1);  // the emitter is shape 0
         Vec3f d = c - p;
         float d2 = length_squared(d);
         float cos_l = d.y / std::sqrt(d2);  // the emitter faces down: |n_l . wi| = wi.y
-        Rgb expected = kFloorAlbedo * kInvPi * Rgb(10.f) * (area * cos_l * cos_l / d2);
-        INFO("got " << rgb_str(s.radiance) << " expected " << rgb_str(expected));
-        CHECK(rgb_near(s.radiance, expected, 1e-4f));
+        out.push_back({s.radiance,
+                       kFloorAlbedo * kInvPi * Rgb(10.f) * (area * cos_l * cos_l / d2)});
+    }
+    return out;
+}
+
+}  // namespace
+
+TEST_CASE("whitted: triangle area light as a point-like emitter at its centroid") {
+    for (const auto &[got, expected] : small_triangle_light("", true)) {
+        INFO("got " << rgb_str(got) << " expected " << rgb_str(expected));
+        CHECK(rgb_near(got, expected, 1e-4f));
     }
 }
 
 TEST_CASE("whitted: an invisible (alpha 0) emitter lights as its light sample says") {
     // pbrt-v4 makes the emitter sample-only; Whitted reaches it through sample_li at u = (0.5,
     // 0.5) and must divide the radiance by that sample's solid-angle pdf: for this small, far
-    // triangle that is close to the centroid formula of the visible case, E = L A cos_l / d^2.
-    auto scene =
-        scene_from_string(floor_scene("AttributeBegin\n"
-                                      "AreaLightSource \"diffuse\" \"rgb L\" [10 10 10]\n"
-                                      "Shape \"trianglemesh\" \"point3 P\" [0 2 0  0.2 2 0  0 2 "
-                                      "0.2] \"integer indices\" [0 1 2] \"float alpha\" 0\n"
-                                      "AttributeEnd\n"));
-    WhittedIntegrator w(*scene);
-    const Vec3f c{0.2f / 3, 2.f, 0.2f / 3};
-    const float area = 0.02f;
-    for (uint32_t px : {3u, 16u, 27u}) {
-        Sample s = w.evaluate(sample_at(px, 10));
-        REQUIRE(s.first_hit);
-        Vec3f p = s.first_hit->primary.position;
-        REQUIRE(std::abs(p.y) < 1e-5f);
-        Vec3f d = c - p;
-        float d2 = length_squared(d);
-        float cos_l = d.y / std::sqrt(d2);
-        Rgb expected = kFloorAlbedo * kInvPi * Rgb(10.f) * (area * cos_l * cos_l / d2);
-        INFO("got " << rgb_str(s.radiance) << " expected " << rgb_str(expected));
-        CHECK(s.radiance.g == doctest::Approx(expected.g).epsilon(0.05));
+    // triangle that is close to the centroid formula of the visible case.
+    for (const auto &[got, expected] : small_triangle_light("\"float alpha\" 0", false)) {
+        INFO("got " << rgb_str(got) << " expected " << rgb_str(expected));
+        CHECK(got.g == doctest::Approx(expected.g).epsilon(0.05));
     }
 }
 
