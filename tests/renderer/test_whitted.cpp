@@ -286,7 +286,8 @@ std::vector<std::pair<Rgb, Rgb>> small_triangle_light(const std::string &extra, 
 }  // namespace
 
 TEST_CASE("whitted: triangle area light as a point-like emitter at its centroid") {
-    for (const auto &[got, expected] : small_triangle_light("", true)) {
+    for (const auto &r : small_triangle_light("", true)) {
+        const Rgb &got = r.first, &expected = r.second;  // (clang: no bindings in INFO)
         INFO("got " << rgb_str(got) << " expected " << rgb_str(expected));
         CHECK(rgb_near(got, expected, 1e-4f));
     }
@@ -296,7 +297,8 @@ TEST_CASE("whitted: an invisible (alpha 0) emitter lights as its light sample sa
     // pbrt-v4 makes the emitter sample-only; Whitted reaches it through sample_li at u = (0.5,
     // 0.5) and must divide the radiance by that sample's solid-angle pdf: for this small, far
     // triangle that is close to the centroid formula of the visible case.
-    for (const auto &[got, expected] : small_triangle_light("\"float alpha\" 0", false)) {
+    for (const auto &r : small_triangle_light("\"float alpha\" 0", false)) {
+        const Rgb &got = r.first, &expected = r.second;
         INFO("got " << rgb_str(got) << " expected " << rgb_str(expected));
         CHECK(got.g == doctest::Approx(expected.g).epsilon(0.05));
     }
