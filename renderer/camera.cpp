@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cstdio>
 
+#include "renderer/lens_system.h"
 #include "sampling/distribution.h"
 #include "sampling/warp.h"
 
@@ -208,7 +209,59 @@ Vec3f PerspectiveCamera::camera_vector_world(Vec3f v) const {
             m[2][0] * v.x + m[2][1] * v.y + m[2][2] * v.z};
 }
 
+void PerspectiveCamera::set_lens_system(std::shared_ptr<const LensSystem> lens) {
+    lens_ = std::move(lens);
+    if (!lens_) return;
+    // The smallest direction differentials over the film's diagonal through the pupil's
+    // centre (pbrt-v4 FindMinimumDifferentials), relative to each ray as the z axis.
+    min_dir_dx_ = min_dir_dy_ = {kInfinity, kInfinity, kInfinity};
+    min_pos_dx_ = min_pos_dy_ = {0, 0, 0};
+    const int n = 64;
+    for (int i = 0; i < n; ++i) {
+        Vec2f pr{float(i) / (n - 1) * width_, float(i) / (n - 1) * height_};
+        CameraRay cr = lens_ray(pr, {0.5f, 0.5f}, true);
+        if (cr.weight == 0.f || !cr.has_differentials) continue;
+        Frame f = Frame::from_z(cr.ray.d);
+        Vec3f dx = normalize(f.to_local(normalize(cr.rx_d))) - Vec3f(0, 0, 1);
+        Vec3f dy = normalize(f.to_local(normalize(cr.ry_d))) - Vec3f(0, 0, 1);
+        if (length_squared(dx) > 0 && length_squared(dx) < length_squared(min_dir_dx_))
+            min_dir_dx_ = dx;
+        if (length_squared(dy) > 0 && length_squared(dy) < length_squared(min_dir_dy_))
+            min_dir_dy_ = dy;
+    }
+    if (!std::isfinite(min_dir_dx_.x)) min_dir_dx_ = {0, 0, 0};
+    if (!std::isfinite(min_dir_dy_.x)) min_dir_dy_ = {0, 0, 0};
+}
+
+CameraRay PerspectiveCamera::lens_ray(Vec2f p_raster, Vec2f u_lens, bool differentials) const {
+    CameraRay cr;
+    Vec3f o, d;
+    cr.weight = lens_->generate_ray(p_raster, u_lens, &o, &d);
+    if (cr.weight == 0.f) return cr;
+    cr.ray.o = camera_point_world(o);
+    cr.ray.d = normalize(camera_vector_world(d));
+    cr.ray.t_max = kInfinity;
+    if (!differentials) return cr;
+    // Finite differences a twentieth of a pixel away with the same lens sample, the other
+    // way if the lens blocks that one; no differentials if both are blocked.
+    auto shifted = [&](Vec2f step, Vec3f *o_d, Vec3f *d_d) {
+        for (float eps : {0.05f, -0.05f}) {
+            Vec3f so, sd;
+            if (lens_->generate_ray(p_raster + step * eps, u_lens, &so, &sd) == 0.f) continue;
+            Vec3f wo = camera_point_world(so), wd = normalize(camera_vector_world(sd));
+            *o_d = cr.ray.o + (wo - cr.ray.o) / eps;
+            *d_d = cr.ray.d + (wd - cr.ray.d) / eps;
+            return true;
+        }
+        return false;
+    };
+    cr.has_differentials = shifted({1, 0}, &cr.rx_o, &cr.rx_d) &&
+                           shifted({0, 1}, &cr.ry_o, &cr.ry_d);
+    return cr;
+}
+
 CameraRay PerspectiveCamera::generate_ray(Vec2f p_raster, Vec2f u_lens, bool differentials) const {
+    if (lens_) return lens_ray(p_raster, u_lens, differentials);
     Vec3f p_camera = p0_camera_ + dx_camera_ * p_raster.x + dy_camera_ * p_raster.y;
     CameraRay cr;
     cr.ray.t_max = kInfinity;

@@ -5,6 +5,7 @@
 // image; raster (0,0) is the top-left corner; `fov` spans the shorter image axis.
 #pragma once
 
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -12,6 +13,8 @@
 #include "renderer/transform.h"
 
 namespace tessera {
+
+class LensSystem;
 
 /// Pixel filter, sampled by importance: `sample(u)` returns an offset from the pixel centre in
 /// pixels, distributed proportionally to the filter (box, triangle, gaussian).
@@ -46,6 +49,10 @@ struct CameraRay {
     Ray ray;
     Vec3f rx_o, rx_d, ry_o, ry_d;
     bool has_differentials = false;
+    /// Factor on the radiance the ray brings back: 1, except through a lens system (pbrt-v4
+    /// CameraRay::weight); 0 when the lens blocks the sample (then `ray` is meaningless and
+    /// the sample adds zero radiance).
+    float weight = 1.f;
 };
 
 /// pbrt-v4 "spherical" camera mappings of the film onto the sphere of directions.
@@ -69,6 +76,13 @@ class PerspectiveCamera {
     CameraRay generate_ray(Vec2f p_raster, Vec2f u_lens, bool differentials = true) const;
     /// Lens radius in scene units; 0 for a pinhole (then generate_ray ignores u_lens).
     float lens_radius() const { return lens_radius_; }
+    /// Makes this a pbrt-v4 "realistic" camera: rays start on the film and pass `lens`
+    /// (renderer/lens_system.h), at the camera's placement; the projection parameters are
+    /// unused from then on.
+    void set_lens_system(std::shared_ptr<const LensSystem> lens);
+    const LensSystem *lens_system() const { return lens_.get(); }
+    /// Whether generate_ray reads u_lens (a thin lens or a lens system).
+    bool uses_lens_sample() const { return lens_radius_ > 0 || lens_; }
     /// The camera's origin in world space (cached per placement: shading and the real-time
     /// modes' view depth read it per point).
     Vec3f position() const { return position_; }
@@ -101,6 +115,10 @@ class PerspectiveCamera {
     float lens_radius_, focal_distance_;
     bool orthographic_ = false;  ///< pbrt-v4 "orthographic": parallel rays along camera +z
     SphericalMapping spherical_ = SphericalMapping::None;  ///< pbrt-v4 "spherical"
+    std::shared_ptr<const LensSystem> lens_;                ///< pbrt-v4 "realistic"
+    /// Realistic camera: the ray through the lens system, in world space, with finite
+    /// differences for the differentials (pbrt-v4 CameraBase::GenerateRayDifferential).
+    CameraRay lens_ray(Vec2f p_raster, Vec2f u_lens, bool differentials) const;
     float width_ = 1, height_ = 1;                          ///< film size in pixels
     /// Spherical camera: the camera-space direction of raster point p (pbrt-v4
     /// SphericalCamera::GenerateRay).

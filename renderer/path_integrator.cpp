@@ -89,7 +89,7 @@ CameraRay PathIntegrator::camera_ray(const CameraSample &cs,
     Vec2f p_raster{float(cs.px) + 0.5f + offset.x, float(cs.py) + 0.5f + offset.y};
     // A pinhole ignores the lens sample: skip its dimensions rather than hash them.
     Vec2f u_lens{0.5f, 0.5f};
-    if (scene_.camera->lens_radius() > 0)
+    if (scene_.camera->uses_lens_sample())
         u_lens = sampler.get_2d();
     else
         sampler.skip(2);
@@ -115,7 +115,10 @@ Sample PathIntegrator::to_sample(const PathResult &r) const {
 Sample PathIntegrator::evaluate(const CameraSample &cs) const {
     sampling::SobolSampler sampler(seed_);
     CameraRay cray = camera_ray(cs, sampler);
-    return to_sample(trace(cray, sampler));
+    if (cray.weight == 0.f) return to_sample(PathResult{});  // blocked by the lens system
+    PathResult r = trace(cray, sampler);
+    r.L *= cray.weight;
+    return to_sample(r);
 }
 
 void PathIntegrator::evaluate_batch(std::span<const CameraSample> samples,
@@ -131,14 +134,27 @@ void PathIntegrator::evaluate_batch(std::span<const CameraSample> samples,
         std::array<CameraRay, kPacket> crays;
         std::array<Ray, kPacket> rays;
         std::array<std::optional<SurfaceInteraction>, kPacket> hits;
+        // Samples the lens system blocks trace nothing: the packet holds the others.
+        std::array<size_t, kPacket> lane;
+        size_t traced = 0;
         for (size_t i = 0; i < n; ++i) {
             samplers[i] = sampling::SobolSampler(seed_);
             crays[i] = camera_ray(samples[base + i], samplers[i]);
-            rays[i] = crays[i].ray;
+            if (crays[i].weight != 0.f) {
+                lane[i] = traced;
+                rays[traced++] = crays[i].ray;
+            }
         }
-        scene_.geometry->intersect8(rays.data(), int(n), hits.data());
-        for (size_t i = 0; i < n; ++i)
-            out[base + i] = to_sample(trace(crays[i], samplers[i], &hits[i]));
+        scene_.geometry->intersect8(rays.data(), int(traced), hits.data());
+        for (size_t i = 0; i < n; ++i) {
+            if (crays[i].weight == 0.f) {
+                out[base + i] = to_sample(PathResult{});
+                continue;
+            }
+            PathResult r = trace(crays[i], samplers[i], &hits[lane[i]]);
+            r.L *= crays[i].weight;
+            out[base + i] = to_sample(r);
+        }
     }
 }
 

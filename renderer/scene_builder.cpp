@@ -8,6 +8,7 @@
 #include "renderer/mesh_io.h"
 #include "renderer/default_view.h"
 #include "renderer/gzip_io.h"
+#include "renderer/lens_system.h"
 #include "renderer/limits.h"
 #include "renderer/loop_subdiv.h"
 #include "renderer/spectra.h"
@@ -66,6 +67,45 @@ std::string resolve(const std::string &base_dir, const FileLoc &loc, const std::
     fs::path alt = fs::path(loc.file).parent_path() / p;
     if (fs::exists(alt, ec)) return alt.string();
     return main.string();
+}
+
+/// pbrt-v4 Camera "realistic": "lensfile" (required), "aperturediameter" (mm, default 1),
+/// "focusdistance" (m, default 10), "aperture" (a built-in stop shape); the film size is
+/// Film "diagonal" (mm, default 35).
+std::shared_ptr<const LensSystem> build_lens_system(const SceneDesc &d,
+                                                    const RenderSettings &s) {
+    const ParamSet &cp = d.camera.params;
+    const Param *lf = cp.find("lensfile");
+    const std::string lens_name = cp.get_string("lensfile", "");
+    if (lens_name.empty())
+        throw SceneError(d.camera.loc, "Camera \"realistic\" needs a \"string lensfile\" "
+                                       "(a lens description file)");
+    const std::string base_dir = fs::path(d.main_file).parent_path().string();
+    const std::vector<float> elements = read_lens_file(resolve(base_dir, lf->loc, lens_name));
+    const float aperture_diameter = cp.get_float("aperturediameter", 1.f);
+    const float focus_distance = cp.get_float("focusdistance", 10.f);
+    float diagonal_mm = 35.f;
+    if (d.film.present) diagonal_mm = d.film.params.get_float("diagonal", 35.f);
+    ApertureImage aperture;
+    if (const Param *ap = cp.find("aperture")) {
+        const std::string name = cp.get_string("aperture", "");
+        aperture = ApertureImage::builtin(name);
+        if (aperture.empty() && !name.empty())
+            warn(ap->loc, "Camera \"realistic\": aperture image \"" + name +
+                              "\" is not supported (only the built-in \"gaussian\", "
+                              "\"square\", \"pentagon\" and \"star\"); the stop is round");
+    }
+    std::vector<std::string> warnings;
+    try {
+        auto lens = std::make_shared<const LensSystem>(elements, aperture_diameter,
+                                                       focus_distance, diagonal_mm / 1000.f,
+                                                       s.width, s.height, std::move(aperture),
+                                                       &warnings);
+        for (const std::string &w : warnings) warn(d.camera.loc, "Camera \"realistic\": " + w);
+        return lens;
+    } catch (const std::runtime_error &e) {
+        throw SceneError(d.camera.loc, std::string("Camera \"realistic\": ") + e.what());
+    }
 }
 
 void apply_settings(const SceneDesc &d, const SceneOverrides &ov, Scene &sc) {
@@ -194,17 +234,20 @@ void apply_settings(const SceneDesc &d, const SceneOverrides &ov, Scene &sc) {
 
     // Camera.
     float fov = 90.f, lens_radius = 0.f, focal_distance = 1e6f;
+    std::shared_ptr<const LensSystem> lens;
     bool orthographic = false;
     SphericalMapping spherical = SphericalMapping::None;
     std::vector<float> sw;
     if (d.camera.present) {
         const ParamSet &cp = d.camera.params;
         if (d.camera.type != "perspective" && d.camera.type != "orthographic" &&
-            d.camera.type != "spherical")
+            d.camera.type != "spherical" && d.camera.type != "realistic")
             throw SceneError(d.camera.loc, "Camera \"" + d.camera.type +
                                                "\" is not supported (\"perspective\", "
-                                               "\"orthographic\" and \"spherical\" are)");
+                                               "\"orthographic\", \"spherical\" and "
+                                               "\"realistic\" are)");
         orthographic = d.camera.type == "orthographic";
+        if (d.camera.type == "realistic") lens = build_lens_system(d, s);
         if (d.camera.type == "spherical") {
             // pbrt-v4 SphericalCamera: "mapping" equalarea (default) or equirectangular; it
             // reads but does not use the lens and screen parameters.
@@ -224,16 +267,18 @@ void apply_settings(const SceneDesc &d, const SceneOverrides &ov, Scene &sc) {
                                    "frameaspectratio"})
                 if (const Param *p = cp.find(ig)) p->used = true;
         }
-        if (!orthographic) fov = cp.get_float("fov", 90.f);
-        lens_radius = cp.get_float("lensradius", 0.f);
+        // pbrt-v4's RealisticCamera reads none of the projective cameras' parameters.
+        const bool projective = !lens;
+        if (!orthographic && projective) fov = cp.get_float("fov", 90.f);
+        if (projective) lens_radius = cp.get_float("lensradius", 0.f);
         if (orthographic && lens_radius > 0)
             warn(d.camera.loc, "depth of field of the orthographic camera is not supported; "
                                "\"lensradius\" ignored");
-        focal_distance = cp.get_float("focaldistance", 1e6f);
-        sw = cp.get_floats("screenwindow");
+        if (projective) focal_distance = cp.get_float("focaldistance", 1e6f);
+        if (projective) sw = cp.get_floats("screenwindow");
         if (!sw.empty() && sw.size() != 4)
             throw SceneError(d.camera.loc, "\"screenwindow\" needs 4 values");
-        float far = cp.get_float("frameaspectratio", 0.f);
+        float far = projective ? cp.get_float("frameaspectratio", 0.f) : 0.f;
         if (far > 0.f && sw.empty()) {
             if (far > 1.f)
                 sw = {-far, far, -1.f, 1.f};
@@ -250,6 +295,7 @@ void apply_settings(const SceneDesc &d, const SceneOverrides &ov, Scene &sc) {
                                                     lens_radius, focal_distance,
                                                     sw.empty() ? nullptr : sw.data(),
                                                     orthographic, spherical);
+    if (lens) sc.camera->set_lens_system(std::move(lens));
 }
 
 /// A shape's triangles in the target space, or nullopt for quadrics/unsupported shapes.

@@ -246,9 +246,13 @@ std::string WhittedIntegrator::describe() const {
 }
 
 Ray WhittedIntegrator::camera_ray(const CameraSample &cs) const {
-    // No filter warp and the lens centre: the plugins place and weight the samples.
+    // No filter warp and the lens centre: the plugins place and weight the samples. A
+    // realistic camera's pupil-centre ray is a preview: its exposure weight is not applied,
+    // and where the lens blocks it the ray (t_max 0) sees the background.
     Vec2f p_raster{float(cs.px) + cs.fx, float(cs.py) + cs.fy};
-    return scene_.camera->generate_ray(p_raster, {0.5f, 0.5f}, false).ray;
+    CameraRay cr = scene_.camera->generate_ray(p_raster, {0.5f, 0.5f}, false);
+    if (cr.weight == 0.f) return Ray{scene_.camera->position(), scene_.camera->forward(), 0.f};
+    return cr.ray;
 }
 
 Vec3f WhittedIntegrator::viewer_direction(Vec3f p) const {
