@@ -8,6 +8,7 @@
 #include "renderer/mesh_io.h"
 #include "renderer/default_view.h"
 #include "renderer/gzip_io.h"
+#include "renderer/image_io.h"
 #include "renderer/lens_system.h"
 #include "renderer/limits.h"
 #include "renderer/loop_subdiv.h"
@@ -88,12 +89,37 @@ std::shared_ptr<const LensSystem> build_lens_system(const SceneDesc &d,
     if (d.film.present) diagonal_mm = d.film.params.get_float("diagonal", 35.f);
     ApertureImage aperture;
     if (const Param *ap = cp.find("aperture")) {
+        // A built-in shape, else an image file whose RGB average (linear) is the stop's
+        // transmission (pbrt-v4 RealisticCamera::Create).
         const std::string name = cp.get_string("aperture", "");
         aperture = ApertureImage::builtin(name);
-        if (aperture.empty() && !name.empty())
-            warn(ap->loc, "Camera \"realistic\": aperture image \"" + name +
-                              "\" is not supported (only the built-in \"gaussian\", "
-                              "\"square\", \"pentagon\" and \"star\"); the stop is round");
+        if (aperture.empty() && !name.empty()) {
+            const std::string file = resolve(base_dir, ap->loc, name);
+            sampling::RgbImage img;
+            try {
+                img = read_image_rgb(file);
+            } catch (const std::exception &e) {
+                throw SceneError(ap->loc, "Camera \"realistic\": cannot read the aperture "
+                                          "image \"" + name + "\": " + e.what());
+            }
+            // 8-bit formats hold sRGB-encoded values (pbrt decodes them); float ones are linear.
+            std::string ext = fs::path(file).extension().string();
+            for (char &c : ext) c = char(std::tolower(static_cast<unsigned char>(c)));
+            const bool linear = ext == ".exr" || ext == ".pfm" || ext == ".hdr";
+            std::vector<float> values(img.pixel_count());
+            for (size_t p = 0; p < values.size(); ++p) {
+                float sum = 0.f;
+                for (int c = 0; c < 3; ++c) {
+                    float v = img.data[3 * p + size_t(c)];
+                    sum += linear ? v : srgb_to_linear(v);
+                }
+                values[p] = std::isfinite(sum) ? std::max(0.f, sum / 3.f) : 0.f;
+            }
+            aperture = ApertureImage(int(img.width), int(img.height), std::move(values));
+            if (aperture.empty())
+                throw SceneError(ap->loc, "Camera \"realistic\": the aperture image \"" +
+                                              name + "\" passes no light (it is black)");
+        }
     }
     std::vector<std::string> warnings;
     try {

@@ -5,6 +5,7 @@
 #include <cmath>
 
 #include "render_test_util.h"
+#include "renderer/image_io.h"
 #include "renderer/lens_system.h"
 #include "test_helpers.h"
 
@@ -100,10 +101,41 @@ TEST_CASE("realistic camera: a lens that cannot work is an error naming the Came
         scene_from_string("Camera \"realistic\" \"string lensfile\" \"" + lens_file() +
                           "\" \"float focusdistance\" 0.02\n" + sky),
         doctest::Contains("test.pbrt:1: Camera \"realistic\": \"focusdistance\""), SceneError);
-    // An aperture image Tessera does not read: a warning, and the round stop.
-    auto sc = scene_from_string(camera_and_film(lens_file(), 8, 4,
-                                                "\"string aperture\" \"bokeh.exr\"") + sky);
-    REQUIRE(sc);
-    CHECK(last_warning().find("aperture image \"bokeh.exr\" is not supported") !=
-          std::string::npos);
+    // An aperture image that is not there, and one that is black.
+    CHECK_THROWS_WITH_AS(
+        scene_from_string(camera_and_film(lens_file(), 8, 4,
+                                          "\"string aperture\" \"/nonexistent/bokeh.exr\"") +
+                          sky),
+        doctest::Contains("test.pbrt:1: Camera \"realistic\": cannot read the aperture image"),
+        SceneError);
+    auto black = (temp_dir("realistic_camera") / "black.exr").string();
+    write_exr(black, 4, 4, {ImageLayer{"", {"R", "G", "B"}, std::vector<float>(48, 0.f)}});
+    CHECK_THROWS_WITH_AS(
+        scene_from_string(camera_and_film(lens_file(), 8, 4,
+                                          "\"string aperture\" \"" + black + "\"") + sky),
+        doctest::Contains("passes no light"), SceneError);
+}
+
+TEST_CASE("realistic camera: an aperture image shapes the stop and keeps its exposure") {
+    // A 16x16 EXR, open (1) in a centred 8x8 square: pbrt normalises every aperture image to
+    // pass as much light as the round stop, so the sky's centre exposure stays pi R^2/(z^2+R^2)
+    // (to within the cos^4 falloff across the slightly larger square).
+    std::vector<float> px(16 * 16 * 3, 0.f);
+    for (int y = 4; y < 12; ++y)
+        for (int x = 4; x < 12; ++x)
+            for (int c = 0; c < 3; ++c) px[size_t((y * 16 + x) * 3 + c)] = 1.f;
+    auto square = (temp_dir("realistic_camera") / "square.exr").string();
+    write_exr(square, 16, 16, {ImageLayer{"", {"R", "G", "B"}, px}});
+    for (const std::string &aperture : {square, std::string("square")}) {
+        CAPTURE(aperture);
+        auto sc = scene_from_string(
+            camera_and_film(lens_file(), 16, 256, "\"string aperture\" \"" + aperture + "\"") +
+            "WorldBegin\nLightSource \"infinite\" \"rgb L\" [ 1 1 1 ]\n");
+        REQUIRE(sc);
+        sampling::RgbImage img = render_image(*sc);
+        const double z = sc->camera->lens_system()->rear_z(), r = 0.003;
+        const double expected = M_PI * r * r / (z * z + r * r);
+        CHECK(img.at(7, 7, 1) == doctest::Approx(expected).epsilon(0.03));
+        CHECK(img.at(8, 8, 1) == doctest::Approx(expected).epsilon(0.03));
+    }
 }
