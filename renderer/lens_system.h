@@ -95,7 +95,7 @@ class LensSystem {
     /// radius segment i of kPupilSegments; empty (min > max) where no light passes.
     struct Bounds {
         double x0 = 1e300, y0 = 1e300, x1 = -1e300, y1 = -1e300;
-        bool empty() const { return x0 > x1 || y0 > y1; }
+        bool empty() const { return x0 >= x1 || y0 >= y1; }  // pbrt IsDegenerate
     };
     static constexpr int kPupilSegments = 64;
     const Bounds &pupil_bounds(int i) const { return pupil_[size_t(i)]; }
