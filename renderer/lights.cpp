@@ -124,6 +124,51 @@ std::string SpotLight::describe() const {
 }
 
 // ---------------------------------------------------------------------------------------------
+// GoniometricLight
+
+GoniometricLight::GoniometricLight(const Transform &render_from_light, Rgb intensity,
+                                   std::vector<float> image, int res)
+    : Light(LightShape::Other),
+      render_from_light_(render_from_light),
+      p_(render_from_light.point({0, 0, 0})),
+      I_(intensity),
+      image_(std::move(image)),
+      res_(res) {
+    double sum = 0;
+    for (float v : image_) sum += v;
+    mean_ = image_.empty() ? 0.f : float(sum / double(image_.size()));
+}
+
+Rgb GoniometricLight::intensity(Vec3f w_light) const {
+    float l2 = length_squared(w_light);
+    if (!(l2 > 0.f) || image_.empty()) return Rgb(0.f);
+    Vec3f w = w_light / std::sqrt(l2);
+    // pbrt-v4 composes renderFromLight with a y/z swap, so the map sees (x, z, y).
+    Vec2f uv = sampling::equal_area_sphere_to_square({w.x, w.z, w.y});
+    // Image::LookupNearest: truncate uv * resolution, clamp to the image.
+    int x = std::clamp(int(uv.x * float(res_)), 0, res_ - 1);
+    int y = std::clamp(int(uv.y * float(res_)), 0, res_ - 1);
+    return I_ * image_[size_t(y) * size_t(res_) + size_t(x)];
+}
+
+std::optional<LightLiSample> GoniometricLight::sample_li(const LightSampleContext &ctx,
+                                                         Vec2f) const {
+    float d2;
+    std::optional<LightLiSample> s = sample_toward(ctx, p_, &d2);
+    if (!s) return std::nullopt;
+    s->L = intensity(render_from_light_.inverse_vector(-s->wi)) / d2;
+    s->pdf = 1.f;
+    return s;
+}
+
+Rgb GoniometricLight::phi() const { return I_ * (4.f * kPi * mean_); }
+
+std::string GoniometricLight::describe() const {
+    return "GoniometricLight p=" + vec_str(p_) + " I=" + rgb_str(I_) + " image=" +
+           std::to_string(res_) + "x" + std::to_string(res_);
+}
+
+// ---------------------------------------------------------------------------------------------
 // DistantLight
 
 std::optional<LightLiSample> DistantLight::sample_li(const LightSampleContext &ctx, Vec2f) const {
@@ -737,6 +782,45 @@ std::unique_ptr<Light> make_infinite(const LightDesc &desc) {
                                                 mapping, scale);
 }
 
+/// pbrt-v4 GoniometricLight::Create: "I" (the illuminant), "scale", "power" (normalised by
+/// 4 pi times the image's mean), "filename" (square; RGB averaged, or one channel).
+std::unique_ptr<Light> make_goniometric(const LightDesc &desc) {
+    const ParamSet &ps = desc.params;
+    Rgb I = ps.get_rgb("I", true).value_or(Rgb(1.f));
+    float scale = ps.get_float("scale", 1.f);
+    float power = ps.get_float("power", -1.f);
+    const std::string filename = ps.get_string("filename", "");
+    std::vector<float> image;
+    int res = 0;
+    if (filename.empty()) {
+        // pbrt-v4 warns and builds a light with an empty image, which emits nothing.
+        warn(desc.loc, "goniometric light: no \"filename\"; the light emits nothing");
+        return nullptr;
+    }
+    int w = 0, h = 0;
+    std::vector<Rgb> px = read_rgb_image(resolve_path(desc.base_dir, filename), desc.loc, &w, &h);
+    if (w != h)
+        throw SceneError(desc.loc, "goniometric light: \"" + filename + "\" is " +
+                                       std::to_string(w) + "x" + std::to_string(h) +
+                                       "; it must be square (an equal-area map of directions)");
+    res = w;
+    image.resize(px.size());
+    double sum = 0;
+    for (size_t i = 0; i < px.size(); ++i) {
+        image[i] = px[i].average();
+        sum += image[i];
+    }
+    if (power > 0.f) {
+        const double k_e = 4.0 * kPi * sum / double(image.size());
+        if (k_e > 0) scale *= float(double(power) / k_e);
+    }
+    // pbrt-v4 composes renderFromLight with a y/z swap; GoniometricLight::intensity applies
+    // the swap itself, so the transform stays the scene's.
+    std::unique_ptr<Light> light = std::make_unique<GoniometricLight>(
+        desc.render_from_light, I * scale, std::move(image), res);
+    return light;
+}
+
 }  // namespace
 
 std::unique_ptr<Light> make_light(const LightDesc &desc) {
@@ -785,7 +869,9 @@ std::unique_ptr<Light> make_light(const LightDesc &desc) {
         light = std::make_unique<DistantLight>(normalize(w), L * scale);
     } else if (desc.type == "infinite") {
         light = make_infinite(desc);
-    } else if (desc.type == "goniometric" || desc.type == "projection") {
+    } else if (desc.type == "goniometric") {
+        light = make_goniometric(desc);
+    } else if (desc.type == "projection") {
         throw SceneError(desc.loc, "light type \"" + desc.type + "\" is not supported");
     } else {
         throw SceneError(desc.loc, "unknown light type \"" + desc.type + "\"");

@@ -385,10 +385,41 @@ class QuadricAreaLight final : public Light {
     bool twosided_;
 };
 
+/// pbrt-v4 "goniometric": a point light at the light-space origin whose intensity toward each
+/// direction is read from a square image in the equal-area octahedral mapping (nearest pixel),
+/// with light-space y and z swapped first, as pbrt-v4 does: the image's pole (+z of the map)
+/// is the light's +y.
+class GoniometricLight final : public Light {
+  public:
+    /// `image`: res x res linear values (row 0 at the top), already multiplied by nothing;
+    /// `intensity` carries "I", "scale" and the "power" normalisation.
+    GoniometricLight(const Transform &render_from_light, Rgb intensity, std::vector<float> image,
+                     int res);
+    LightType type() const override { return LightType::DeltaPosition; }
+    std::optional<LightLiSample> sample_li(const LightSampleContext &ctx, Vec2f u) const override;
+    float pdf_li(const LightSampleContext &, Vec3f, Vec3f, Vec3f) const override { return 0.f; }
+    /// 4 pi I times the image's mean (pbrt-v4 GoniometricLight::Phi).
+    Rgb phi() const override;
+    std::string describe() const override;
+    /// Intensity (W/sr) toward light-space direction w (any length; before the y/z swap).
+    Rgb intensity(Vec3f w_light) const;
+    /// The image's mean value.
+    float image_mean() const { return mean_; }
+
+  private:
+    Transform render_from_light_;
+    Vec3f p_;
+    Rgb I_;
+    std::vector<float> image_;
+    int res_;
+    float mean_ = 0;
+};
+
 /// Builds a light from a `LightSource` directive: "point", "spot", "distant", "infinite" (with
 /// "L", with "filename", or neither: the colour space's illuminant, RGB (1,1,1)). Parameters,
-/// defaults and the "power"/"illuminance" normalisations are pbrt-v4's. "goniometric" and
-/// "projection" (and unknown types) throw SceneError with file:line. Image files are read with
+/// defaults and the "power"/"illuminance" normalisations are pbrt-v4's; "goniometric" reads a
+/// square equal-area image ("filename"; RGB averaged). "projection" (and unknown types) throw
+/// SceneError with file:line. Image files are read with
 /// OpenImageIO and resolved against desc.base_dir; 8-bit images are decoded from sRGB. Unused
 /// parameters are reported with warn(). Not thread-safe only through warn()'s ordering.
 std::unique_ptr<Light> make_light(const LightDesc &desc);

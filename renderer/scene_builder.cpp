@@ -8,7 +8,6 @@
 #include "renderer/mesh_io.h"
 #include "renderer/default_view.h"
 #include "renderer/gzip_io.h"
-#include "renderer/image_io.h"
 #include "renderer/lens_system.h"
 #include "renderer/limits.h"
 #include "renderer/loop_subdiv.h"
@@ -95,27 +94,13 @@ std::shared_ptr<const LensSystem> build_lens_system(const SceneDesc &d,
         aperture = ApertureImage::builtin(name);
         if (aperture.empty() && !name.empty()) {
             const std::string file = resolve(base_dir, ap->loc, name);
-            sampling::RgbImage img;
-            try {
-                img = read_image_rgb(file);
-            } catch (const std::exception &e) {
-                throw SceneError(ap->loc, "Camera \"realistic\": cannot read the aperture "
-                                          "image \"" + name + "\": " + e.what());
-            }
-            // 8-bit formats hold sRGB-encoded values (pbrt decodes them); float ones are linear.
-            std::string ext = fs::path(file).extension().string();
-            for (char &c : ext) c = char(std::tolower(static_cast<unsigned char>(c)));
-            const bool linear = ext == ".exr" || ext == ".pfm" || ext == ".hdr";
-            std::vector<float> values(img.pixel_count());
-            for (size_t p = 0; p < values.size(); ++p) {
-                float sum = 0.f;
-                for (int c = 0; c < 3; ++c) {
-                    float v = img.data[3 * p + size_t(c)];
-                    sum += linear ? v : srgb_to_linear(v);
-                }
-                values[p] = std::isfinite(sum) ? std::max(0.f, sum / 3.f) : 0.f;
-            }
-            aperture = ApertureImage(int(img.width), int(img.height), std::move(values));
+            int w = 0, h = 0;
+            // Linear RGB; 8- and 16-bit formats decoded from sRGB as pbrt does.
+            std::vector<Rgb> img = read_rgb_image(file, ap->loc, &w, &h);
+            std::vector<float> values(img.size());
+            for (size_t p = 0; p < values.size(); ++p)
+                values[p] = std::max(0.f, (img[p].r + img[p].g + img[p].b) / 3.f);
+            aperture = ApertureImage(w, h, std::move(values));
             if (aperture.empty())
                 throw SceneError(ap->loc, "Camera \"realistic\": the aperture image \"" +
                                               name + "\" passes no light (it is black)");

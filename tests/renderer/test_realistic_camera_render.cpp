@@ -106,7 +106,7 @@ TEST_CASE("realistic camera: a lens that cannot work is an error naming the Came
         scene_from_string(camera_and_film(lens_file(), 8, 4,
                                           "\"string aperture\" \"/nonexistent/bokeh.exr\"") +
                           sky),
-        doctest::Contains("test.pbrt:1: Camera \"realistic\": cannot read the aperture image"),
+        doctest::Contains("test.pbrt:1: cannot read image \"/nonexistent/bokeh.exr\""),
         SceneError);
     auto black = (temp_dir("realistic_camera") / "black.exr").string();
     write_exr(black, 4, 4, {ImageLayer{"", {"R", "G", "B"}, std::vector<float>(48, 0.f)}});
