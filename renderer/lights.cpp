@@ -169,6 +169,102 @@ std::string GoniometricLight::describe() const {
 }
 
 // ---------------------------------------------------------------------------------------------
+// ProjectionLight
+
+ProjectionLight::ProjectionLight(const Transform &render_from_light, std::vector<Rgb> image,
+                                 int width, int height, float fov_deg, float scale)
+    : Light(LightShape::Other),
+      render_from_light_(render_from_light),
+      p_(render_from_light.point({0, 0, 0})),
+      image_(std::move(image)),
+      width_(width),
+      height_(height),
+      scale_(scale) {
+    const float aspect = float(width) / float(height);
+    if (aspect > 1.f) {
+        x0_ = -aspect, x1_ = aspect, y0_ = -1.f, y1_ = 1.f;
+    } else {
+        x0_ = -1.f, x1_ = 1.f, y0_ = -1.f / aspect, y1_ = 1.f / aspect;
+    }
+    const float opposite = std::tan(radians(fov_deg) / 2.f);
+    inv_tan_ = 1.f / opposite;
+    area_ = 4.f * opposite * opposite * (aspect > 1.f ? aspect : 1.f / aspect);
+}
+
+Rgb ProjectionLight::intensity(Vec3f w_light) const {
+    float l2 = length_squared(w_light);
+    if (!(l2 > 0.f)) return Rgb(0.f);
+    Vec3f w = w_light / std::sqrt(l2);
+    // pbrt-v4 flips the light's y (renderFromLight * Scale(1, -1, 1)) so that the image's top
+    // row lands toward +y.
+    w.y = -w.y;
+    constexpr float kHither = 1e-3f;
+    if (w.z < kHither) return Rgb(0.f);
+    const float sx = w.x * inv_tan_ / w.z, sy = w.y * inv_tan_ / w.z;
+    if (!(sx >= x0_ && sx <= x1_ && sy >= y0_ && sy <= y1_)) return Rgb(0.f);
+    // Image::LookupNearest of the screen offset: truncate, clamp to the image.
+    const float u = (sx - x0_) / (x1_ - x0_), v = (sy - y0_) / (y1_ - y0_);
+    const int x = std::clamp(int(u * float(width_)), 0, width_ - 1);
+    const int y = std::clamp(int(v * float(height_)), 0, height_ - 1);
+    const Rgb c = image_[size_t(y) * size_t(width_) + size_t(x)];
+    return Rgb(std::max(0.f, c.r), std::max(0.f, c.g), std::max(0.f, c.b)) * scale_;
+}
+
+std::optional<LightLiSample> ProjectionLight::sample_li(const LightSampleContext &ctx,
+                                                        Vec2f) const {
+    float d2;
+    std::optional<LightLiSample> s = sample_toward(ctx, p_, &d2);
+    if (!s) return std::nullopt;
+    s->L = intensity(render_from_light_.inverse_vector(-s->wi)) / d2;
+    if (s->L.is_black()) return std::nullopt;
+    s->pdf = 1.f;
+    return s;
+}
+
+namespace {
+
+/// cos^3 of the direction through the screen point at the centre of pixel (x, y), the
+/// solid-angle-per-screen-area factor of a projection light's pixel.
+float projection_cos3(int x, int y, int w, int h, float x0, float x1, float y0, float y1,
+                      float inv_tan) {
+    const float sx = x0 + (x1 - x0) * (float(x) + 0.5f) / float(w);
+    const float sy = y0 + (y1 - y0) * (float(y) + 0.5f) / float(h);
+    // The screen point (sx, sy) at depth 1 is the light-space direction (sx, sy) / inv_tan.
+    Vec3f d = normalize(Vec3f(sx / inv_tan, sy / inv_tan, 1.f));
+    return d.z * d.z * d.z;
+}
+
+}  // namespace
+
+Rgb ProjectionLight::phi() const {
+    double sum[3] = {0, 0, 0};
+    for (int y = 0; y < height_; ++y)
+        for (int x = 0; x < width_; ++x) {
+            const float c3 = projection_cos3(x, y, width_, height_, x0_, x1_, y0_, y1_, inv_tan_);
+            const Rgb c = image_[size_t(y) * size_t(width_) + size_t(x)];
+            sum[0] += std::max(0.f, c.r) * c3;
+            sum[1] += std::max(0.f, c.g) * c3;
+            sum[2] += std::max(0.f, c.b) * c3;
+        }
+    const double k = double(scale_) * area_ / (double(width_) * height_);
+    return Rgb(float(sum[0] * k), float(sum[1] * k), float(sum[2] * k));
+}
+
+float ProjectionLight::unit_power() const {
+    double sum = 0;
+    for (int y = 0; y < height_; ++y)
+        for (int x = 0; x < width_; ++x)
+            sum += double(image_[size_t(y) * size_t(width_) + size_t(x)].luminance()) *
+                   projection_cos3(x, y, width_, height_, x0_, x1_, y0_, y1_, inv_tan_);
+    return float(double(area_) * sum / (double(width_) * height_));
+}
+
+std::string ProjectionLight::describe() const {
+    return "ProjectionLight p=" + vec_str(p_) + " image=" + std::to_string(width_) + "x" +
+           std::to_string(height_) + " scale=" + std::to_string(scale_);
+}
+
+// ---------------------------------------------------------------------------------------------
 // DistantLight
 
 std::optional<LightLiSample> DistantLight::sample_li(const LightSampleContext &ctx, Vec2f) const {
@@ -821,6 +917,32 @@ std::unique_ptr<Light> make_goniometric(const LightDesc &desc) {
     return light;
 }
 
+/// pbrt-v4 ProjectionLight::Create: "scale", "power" (normalised by the image's luminance
+/// over the frustum), "fov" (90), "filename" (required; RGB).
+std::unique_ptr<Light> make_projection(const LightDesc &desc) {
+    const ParamSet &ps = desc.params;
+    float scale = ps.get_float("scale", 1.f);
+    float power = ps.get_float("power", -1.f);
+    float fov = ps.get_float("fov", 90.f);
+    const std::string filename = ps.get_string("filename", "");
+    if (filename.empty())
+        throw SceneError(desc.loc, "projection light: needs a \"filename\" (the image it "
+                                   "projects)");
+    if (!(fov > 0.f && fov < 180.f))
+        throw SceneError(desc.loc, "projection light: \"fov\" must be between 0 and 180 "
+                                   "degrees");
+    int w = 0, h = 0;
+    std::vector<Rgb> px = read_rgb_image(resolve_path(desc.base_dir, filename), desc.loc, &w, &h);
+    auto light = std::make_unique<ProjectionLight>(desc.render_from_light, px, w, h, fov, scale);
+    if (power > 0.f) {
+        const float k = light->unit_power();
+        if (k > 0.f)
+            light = std::make_unique<ProjectionLight>(desc.render_from_light, std::move(px), w, h,
+                                                      fov, scale * power / k);
+    }
+    return light;
+}
+
 }  // namespace
 
 std::unique_ptr<Light> make_light(const LightDesc &desc) {
@@ -872,7 +994,7 @@ std::unique_ptr<Light> make_light(const LightDesc &desc) {
     } else if (desc.type == "goniometric") {
         light = make_goniometric(desc);
     } else if (desc.type == "projection") {
-        throw SceneError(desc.loc, "light type \"" + desc.type + "\" is not supported");
+        light = make_projection(desc);
     } else {
         throw SceneError(desc.loc, "unknown light type \"" + desc.type + "\"");
     }

@@ -415,11 +415,42 @@ class GoniometricLight final : public Light {
     float mean_ = 0;
 };
 
+/// pbrt-v4 "projection": a point light at the light-space origin projecting an RGB image
+/// through a perspective frustum of `fov` (degrees, the image's shorter axis) along +z, like a
+/// slide projector (the image's top toward +y, nearest pixel, nothing outside the frustum).
+class ProjectionLight final : public Light {
+  public:
+    /// `image`: width x height linear RGB, row 0 at the top; `scale` carries "scale" and the
+    /// "power" normalisation.
+    ProjectionLight(const Transform &render_from_light, std::vector<Rgb> image, int width,
+                    int height, float fov_deg, float scale);
+    LightType type() const override { return LightType::DeltaPosition; }
+    std::optional<LightLiSample> sample_li(const LightSampleContext &ctx, Vec2f u) const override;
+    float pdf_li(const LightSampleContext &, Vec3f, Vec3f, Vec3f) const override { return 0.f; }
+    /// scale * A * mean(rgb * cos^3) over the image (pbrt-v4 ProjectionLight::Phi).
+    Rgb phi() const override;
+    std::string describe() const override;
+    /// Intensity (W/sr) toward light-space direction w (any length).
+    Rgb intensity(Vec3f w_light) const;
+    /// pbrt-v4's normalisation of "power": A * mean(luminance * cos^3) per unit scale.
+    float unit_power() const;
+
+  private:
+    Transform render_from_light_;
+    Vec3f p_;
+    std::vector<Rgb> image_;
+    int width_, height_;
+    float scale_;
+    float inv_tan_;        ///< 1 / tan(fov / 2)
+    float x0_, x1_, y0_, y1_;  ///< screen bounds (the shorter axis spans [-1, 1])
+    float area_;           ///< A: the screen window's area at distance 1
+};
+
 /// Builds a light from a `LightSource` directive: "point", "spot", "distant", "infinite" (with
 /// "L", with "filename", or neither: the colour space's illuminant, RGB (1,1,1)). Parameters,
 /// defaults and the "power"/"illuminance" normalisations are pbrt-v4's; "goniometric" reads a
-/// square equal-area image ("filename"; RGB averaged). "projection" (and unknown types) throw
-/// SceneError with file:line. Image files are read with
+/// square equal-area image ("filename"; RGB averaged), "projection" an RGB image ("filename",
+/// "fov"). Unknown types throw SceneError with file:line. Image files are read with
 /// OpenImageIO and resolved against desc.base_dir; 8-bit images are decoded from sRGB. Unused
 /// parameters are reported with warn(). Not thread-safe only through warn()'s ordering.
 std::unique_ptr<Light> make_light(const LightDesc &desc);
