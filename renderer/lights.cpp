@@ -151,14 +151,29 @@ Rgb GoniometricLight::intensity(Vec3f w_light) const {
     return I_ * image_[size_t(y) * size_t(res_) + size_t(x)];
 }
 
-std::optional<LightLiSample> GoniometricLight::sample_li(const LightSampleContext &ctx,
-                                                         Vec2f) const {
+namespace {
+
+/// A point emitter's light sample: its intensity toward -wi in light space over d^2; nullopt
+/// where it sends nothing (as for a spot light outside its cone).
+template <class IntensityFn>
+std::optional<LightLiSample> sample_point_emitter(const LightSampleContext &ctx, Vec3f p,
+                                                  const Transform &render_from_light,
+                                                  IntensityFn intensity) {
     float d2;
-    std::optional<LightLiSample> s = sample_toward(ctx, p_, &d2);
+    std::optional<LightLiSample> s = sample_toward(ctx, p, &d2);
     if (!s) return std::nullopt;
-    s->L = intensity(render_from_light_.inverse_vector(-s->wi)) / d2;
+    s->L = intensity(render_from_light.inverse_vector(-s->wi)) / d2;
+    if (s->L.is_black()) return std::nullopt;
     s->pdf = 1.f;
     return s;
+}
+
+}  // namespace
+
+std::optional<LightLiSample> GoniometricLight::sample_li(const LightSampleContext &ctx,
+                                                         Vec2f) const {
+    return sample_point_emitter(ctx, p_, render_from_light_,
+                                [this](Vec3f w) { return intensity(w); });
 }
 
 Rgb GoniometricLight::phi() const { return I_ * (4.f * kPi * mean_); }
@@ -212,13 +227,8 @@ Rgb ProjectionLight::intensity(Vec3f w_light) const {
 
 std::optional<LightLiSample> ProjectionLight::sample_li(const LightSampleContext &ctx,
                                                         Vec2f) const {
-    float d2;
-    std::optional<LightLiSample> s = sample_toward(ctx, p_, &d2);
-    if (!s) return std::nullopt;
-    s->L = intensity(render_from_light_.inverse_vector(-s->wi)) / d2;
-    if (s->L.is_black()) return std::nullopt;
-    s->pdf = 1.f;
-    return s;
+    return sample_point_emitter(ctx, p_, render_from_light_,
+                                [this](Vec3f w) { return intensity(w); });
 }
 
 namespace {
