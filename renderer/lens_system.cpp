@@ -378,7 +378,7 @@ double LensSystem::front_z() const {
 }
 
 float LensSystem::trace_from_film(const LensVec &o, const LensVec &d, LensVec *o_out,
-                                  LensVec *d_out) const {
+                                  LensVec *d_out, bool rotation_invariant) const {
     double element_z = 0;
     float weight = 1.f;
     // Lens space: camera space with z flipped, the film at 0 and the elements toward -z.
@@ -398,11 +398,16 @@ float LensSystem::trace_from_film(const LensVec &o, const LensVec &d, LensVec *o
             return 0.f;
         }
         LensVec hit = ro + rd * t;
-        if (stop && !aperture_.empty()) {
+        const double r2 = hit.x * hit.x + hit.y * hit.y;
+        if (stop && !aperture_.empty() && rotation_invariant) {
+            // The image covers the square around the stop's circle: its corners reach sqrt(2)
+            // times the radius.
+            if (r2 > 2 * e.aperture_radius * e.aperture_radius) return 0.f;
+        } else if (stop && !aperture_.empty()) {
             weight = aperture_.bilerp((hit.x / e.aperture_radius + 1) / 2,
                                       (hit.y / e.aperture_radius + 1) / 2);
             if (weight == 0.f) return 0.f;
-        } else if (hit.x * hit.x + hit.y * hit.y > e.aperture_radius * e.aperture_radius) {
+        } else if (r2 > e.aperture_radius * e.aperture_radius) {
             return 0.f;
         }
         ro = hit;
@@ -483,6 +488,12 @@ void LensSystem::thick_lens(double pz[2], double fz[2]) const {
             throw std::runtime_error("the lens system has no finite focal length");
 }
 
+// The bounds are searched for film points on the +x axis and rotated to each film point's
+// angle when sampled, which holds for a lens with rotational symmetry. A non-round aperture
+// image breaks it: pbrt-v4 bounds the image's shape itself, and rotating that box leaves out
+// parts of the shape for film points off the x axis (a square stop loses up to ~10% of the
+// light at 45 degrees). Here the search replaces the image by the circle around it, so the
+// rotated box always contains every ray the image passes.
 LensSystem::Bounds LensSystem::bound_exit_pupil(double film_x0, double film_x1) const {
     constexpr uint32_t kSamples = 1u << 18;
     Bounds b;
@@ -493,7 +504,7 @@ LensSystem::Bounds LensSystem::bound_exit_pupil(double film_x0, double film_x1) 
                        rear_z()};
         bool inside = p_rear.x >= b.x0 && p_rear.x <= b.x1 && p_rear.y >= b.y0 &&
                       p_rear.y <= b.y1;
-        if (!inside && trace_from_film(p_film, p_rear - p_film, nullptr, nullptr) != 0.f) {
+        if (!inside && trace_from_film(p_film, p_rear - p_film, nullptr, nullptr, true) != 0.f) {
             b.x0 = std::min(b.x0, p_rear.x);
             b.y0 = std::min(b.y0, p_rear.y);
             b.x1 = std::max(b.x1, p_rear.x);

@@ -77,7 +77,10 @@ class LensSystem {
 
     /// Traces a camera-space ray from the film side through every interface (pbrt-v4
     /// TraceLensesFromFilm): its weight (1, or the aperture image's value), 0 if blocked.
-    float trace_from_film(const LensVec &o, const LensVec &d, LensVec *o_out, LensVec *d_out) const;
+    /// With `rotation_invariant`, an aperture image is replaced by the circle around it (the
+    /// exit-pupil search; see bound_exit_pupil).
+    float trace_from_film(const LensVec &o, const LensVec &d, LensVec *o_out, LensVec *d_out,
+                          bool rotation_invariant = false) const;
     /// The reverse direction, from the scene side (no aperture image).
     bool trace_from_scene(const LensVec &o, const LensVec &d, LensVec *o_out, LensVec *d_out) const;
 

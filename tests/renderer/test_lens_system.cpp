@@ -35,19 +35,20 @@ double axis_crossing_z(Vec3f o, Vec3f d) {
 TEST_CASE("lens system: the thick-lens focal length of a singlet matches the lensmaker's equation") {
     LensSystem lens(kSinglet, 4.f, 2.f, 0.035f, 64, 64);
     const double f = singlet_focal_length();  // 50.34 mm
-    CHECK(lens.focal_length() == doctest::Approx(f).epsilon(0.002));
+    CHECK(lens.focal_length() == doctest::Approx(f).epsilon(0.002).scale(0));
     // Thin-lens estimate of the film distance for an object 2 m away: 1/f = 1/s + 1/s'.
     // The film sits a little beyond f, 1 mm behind the stop plane (rear_z is stop to film).
     const double s_image = 1.0 / (1.0 / f - 1.0 / 2.0);
-    CHECK(lens.rear_z() + 0.001 + 0.001 == doctest::Approx(s_image).epsilon(0.03));
+    CHECK(lens.rear_z() + 0.001 + 0.001 == doctest::Approx(s_image).epsilon(0.03).scale(0));
 }
 
 TEST_CASE("lens system: rays from the film centre meet on the axis at the focus distance") {
-    // Farther focus distances magnify the singlet's spherical aberration (s^2 / f^2 in object
-    // space): at 2 m the marginal rays of a 2 mm stop land about 1.5% short.
+    // A 0.5 mm stop keeps the rays paraxial: the singlet's spherical aberration grows with
+    // the ray height squared and is magnified s^2 / f^2 in object space (through a 2 mm stop
+    // the marginal rays focused at 2 m cross the axis 2.3% short; through 0.5 mm, ~0.2%).
     for (float focus : {0.3f, 0.5f, 1.f, 2.f}) {
         CAPTURE(focus);
-        LensSystem lens(kSinglet, 2.f, focus, 0.035f, 64, 64);
+        LensSystem lens(kSinglet, 0.5f, focus, 0.035f, 64, 64);
         int traced = 0;
         double z_min = 1e30, z_max = -1e30;
         for (int i = 0; i < 8; ++i)
@@ -63,10 +64,8 @@ TEST_CASE("lens system: rays from the film centre meet on the axis at the focus 
                 z_max = std::max(z_max, z);
             }
         REQUIRE(traced > 20);
-        // Paraxial focusing through a 2 mm stop (f/25): spherical aberration stays well under
-        // 2% of the distance.
-        CHECK(z_min == doctest::Approx(focus).epsilon(0.02));
-        CHECK(z_max == doctest::Approx(focus).epsilon(0.02));
+        CHECK(z_min == doctest::Approx(focus).epsilon(0.01).scale(0));
+        CHECK(z_max == doctest::Approx(focus).epsilon(0.01).scale(0));
     }
 }
 
@@ -85,7 +84,7 @@ TEST_CASE("lens system: the centre pixel's mean weight is the stop's projected s
                 Vec3f o, d;
                 sum += lens.generate_ray({32.f, 32.f}, {(i + 0.5f) / n, (j + 0.5f) / n}, &o, &d);
             }
-        CHECK(sum / (n * n) == doctest::Approx(expected).epsilon(0.01));
+        CHECK(sum / (n * n) == doctest::Approx(expected).epsilon(0.01).scale(0));
     }
 }
 
@@ -102,7 +101,7 @@ TEST_CASE("lens system: the image is inverted onto the film; raster up-left look
     // The film's aspect follows the resolution, its diagonal is the given one.
     Vec2f e = lens.film_extent();
     CHECK(e.x / e.y == doctest::Approx(64.0 / 48.0));
-    CHECK(std::hypot(e.x, e.y) == doctest::Approx(0.035));
+    CHECK(std::hypot(e.x, e.y) == doctest::Approx(0.035).epsilon(1e-5).scale(0));
 }
 
 TEST_CASE("lens system: an aperture wider than the stop is clamped with a warning") {
@@ -110,7 +109,7 @@ TEST_CASE("lens system: an aperture wider than the stop is clamped with a warnin
     LensSystem lens(kSinglet, 30.f, 3.f, 0.035f, 64, 64, {}, &warnings);
     REQUIRE(warnings.size() == 1);
     CHECK(warnings[0].find("clamped") != std::string::npos);
-    CHECK(lens.elements().back().aperture_radius == doctest::Approx(0.005));
+    CHECK(lens.elements().back().aperture_radius == doctest::Approx(0.005).epsilon(1e-5).scale(0));
 }
 
 TEST_CASE("lens system: a focus distance inside the focal length cannot be focused") {
@@ -136,7 +135,7 @@ TEST_CASE("aperture images: pbrt's built-in shapes pass as much light as the rou
         double sum = 0;
         for (int i = 0; i < n; ++i)
             for (int j = 0; j < n; ++j) sum += img.bilerp((i + 0.5) / n, (j + 0.5) / n);
-        CHECK(sum / (n * n) == doctest::Approx(M_PI / 4).epsilon(0.01));
+        CHECK(sum / (n * n) == doctest::Approx(M_PI / 4).epsilon(0.01).scale(0));
         CHECK(img.bilerp(0.01, 0.01) == 0.f);  // the corners are closed
         CHECK(img.bilerp(1.5, 0.5) == 0.f);    // black outside
     }
@@ -188,4 +187,29 @@ TEST_CASE("lens files: numbers, comments, and errors with the file's line") {
                          doctest::Contains("not found"), SceneError);
     CHECK_THROWS_WITH_AS(read_lens_file(dir.string()), doctest::Contains("not a regular file"),
                          SceneError);
+}
+
+TEST_CASE("lens system: an aperture image passes the round stop's light at every film angle") {
+    // pbrt-v4 normalises aperture images to the round stop's transmission. Its exit-pupil
+    // bounds, found on the film's x axis and rotated, would cut off a square stop's corners
+    // at 45 degrees; Tessera bounds the circle around the image instead (lens_system.cpp).
+    LensSystem round(kSinglet, 6.f, 5.f, 0.02f, 16, 16);
+    for (const char *name : {"square", "pentagon", "gaussian"}) {
+        CAPTURE(name);
+        LensSystem shaped(kSinglet, 6.f, 5.f, 0.02f, 16, 16, ApertureImage::builtin(name));
+        for (Vec2f film : {Vec2f{8.f, 8.f}, Vec2f{12.f, 8.f}, Vec2f{12.f, 12.f}, Vec2f{3.f, 13.f}}) {
+            CAPTURE(film.x);
+            CAPTURE(film.y);
+            const int n = 384;
+            double a = 0, b = 0;
+            for (int i = 0; i < n; ++i)
+                for (int j = 0; j < n; ++j) {
+                    Vec3f o, d;
+                    Vec2f u{(i + 0.5f) / n, (j + 0.5f) / n};
+                    a += round.generate_ray(film, u, &o, &d);
+                    b += shaped.generate_ray(film, u, &o, &d);
+                }
+            CHECK(b == doctest::Approx(a).epsilon(0.01).scale(0));
+        }
+    }
 }

@@ -88,15 +88,15 @@ TEST_CASE("projection light: its power is the intensity integrated over the sphe
         }
     const double four_pi_over_n = 4 * M_PI / (double(n) * n);
     Rgb phi = p.phi();
-    CHECK(sum[0] * four_pi_over_n == doctest::Approx(phi.r).epsilon(0.01));
-    CHECK(sum[1] * four_pi_over_n == doctest::Approx(phi.g).epsilon(0.01));
-    CHECK(sum[2] * four_pi_over_n == doctest::Approx(phi.b).epsilon(0.01));
+    CHECK(sum[0] * four_pi_over_n == doctest::Approx(phi.r).epsilon(0.01).scale(0));
+    CHECK(sum[1] * four_pi_over_n == doctest::Approx(phi.g).epsilon(0.01).scale(0));
+    CHECK(sum[2] * four_pi_over_n == doctest::Approx(phi.b).epsilon(0.01).scale(0));
 
     // "power" P scales the light so that its luminous power is P.
     auto powered = scene_from_string("WorldBegin\nLightSource \"projection\" \"string filename\" "
                                      "\"" + img + "\" \"float fov\" 60 \"float power\" 50\n");
     REQUIRE(powered);
-    CHECK(only_projection(*powered).phi().luminance() == doctest::Approx(50.f).epsilon(1e-4));
+    CHECK(only_projection(*powered).phi().luminance() == doctest::Approx(50.f).epsilon(1e-4).scale(0));
 }
 
 TEST_CASE("projection light: no image, or a bad fov, is an error with the file's line") {

@@ -45,13 +45,15 @@ TEST_CASE("realistic camera: a uniform sky exposes the centre by the stop's soli
     // R at distance z from the film centre (every ray through the stop sees L = 1).
     const double z = lens->rear_z(), r = 0.003;
     const double expected = M_PI * r * r / (z * z + r * r);
-    for (int y = 7; y <= 8; ++y)
-        for (int x = 7; x <= 8; ++x) {
-            CAPTURE(x);
-            CAPTURE(y);
-            for (int c = 0; c < 3; ++c)
-                CHECK(img.at(x, y, c) == doctest::Approx(expected).epsilon(0.02));
-        }
+    // The central 4x4 pixels (within 2 pixels, 1.8 mm, of the film centre, where cos^4 and
+    // the pupil's shape change the exposure by under 0.2%), averaged against per-pixel noise.
+    for (int c = 0; c < 3; ++c) {
+        CAPTURE(c);
+        double mean = 0;
+        for (int y = 6; y <= 9; ++y)
+            for (int x = 6; x <= 9; ++x) mean += img.at(x, y, c) / 16.0;
+        CHECK(mean == doctest::Approx(expected).epsilon(0.01).scale(0));
+    }
     // The corners are darker (cos^4 and the pupil's foreshortening), never brighter.
     CHECK(img.at(0, 0, 0) < 0.95 * img.at(7, 7, 0));
     CHECK(img.at(0, 0, 0) > 0.f);
@@ -135,7 +137,9 @@ TEST_CASE("realistic camera: an aperture image shapes the stop and keeps its exp
         sampling::RgbImage img = render_image(*sc);
         const double z = sc->camera->lens_system()->rear_z(), r = 0.003;
         const double expected = M_PI * r * r / (z * z + r * r);
-        CHECK(img.at(7, 7, 1) == doctest::Approx(expected).epsilon(0.03));
-        CHECK(img.at(8, 8, 1) == doctest::Approx(expected).epsilon(0.03));
+        double mean = 0;
+        for (int y = 6; y <= 9; ++y)
+            for (int x = 6; x <= 9; ++x) mean += img.at(x, y, 1) / 16.0;
+        CHECK(mean == doctest::Approx(expected).epsilon(0.015).scale(0));
     }
 }
