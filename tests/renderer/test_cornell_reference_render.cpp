@@ -66,16 +66,35 @@ TEST_CASE("Cornell box: image means agree with Tungsten and Mitsuba 3 within 1%"
         for (int c = 0; c < 3; ++c) {
             double m = image_mean(img, c), r = image_mean(ref, c);
             INFO(ref_file << " channel " << c << ": tessera " << m << ", reference " << r);
-            CHECK(m == doctest::Approx(r).epsilon(0.01));
+            CHECK(m == doctest::Approx(r).epsilon(0.01).scale(0));
         }
-        // Block means (8x8 blocks of 8x8 pixels) agree too, away from the emitter rows.
+    }
+}
+
+TEST_CASE("Cornell box: 8x8-pixel block means agree with Tungsten and Mitsuba 3 within 3%") {
+    TESSERA_REQUIRE_SHARED(shared);
+    // With a box filter of one pixel each of our pixels estimates exactly the box-downsampled
+    // reference pixel. (The scene's triangle filter, one 64^2 pixel wide, blurs the floor's
+    // steep gradient at the image's bottom edge: the last row then reads 9% darker than the
+    // box-downsampled references, which a render at 256^2 does not show.)
+    SceneDesc desc = parse_pbrt_file(scene_path(shared));
+    desc.filter.type = "box";
+    desc.filter.params.params.clear();
+    SceneOverrides ov;
+    ov.width = ov.height = int(kRes);
+    ov.spp = 1024;  // the darkest block (0.015) is 3% noisy at 256 spp
+    auto scene = build_scene(desc, ov);
+    sampling::RgbImage img = render_image(*scene);
+    for (const char *ref_file : {"reference/TungstenRender.exr", "mitsuba3/scene_v3.exr"}) {
+        sampling::RgbImage ref = reference(shared, ref_file);
+        // 8x8 blocks of 8x8 pixels, away from the emitter's row of blocks.
         sampling::RgbImage a = sampling::box_downsample(img, 8), b = sampling::box_downsample(ref, 8);
         for (uint32_t y = 1; y < 8; ++y)
             for (uint32_t x = 0; x < 8; ++x) {
                 double ta = a.at(x, y, 0) + a.at(x, y, 1) + a.at(x, y, 2);
                 double tb = b.at(x, y, 0) + b.at(x, y, 1) + b.at(x, y, 2);
                 INFO(ref_file << " block " << x << "," << y);
-                CHECK(ta == doctest::Approx(tb).epsilon(0.03));
+                CHECK(ta == doctest::Approx(tb).epsilon(0.03).scale(0));
             }
     }
 }
