@@ -344,12 +344,18 @@ LensSystem::LensSystem(const std::vector<float> &lens, float aperture_diameter,
     const double f = fz[0] - pz[0];
     focal_length_ = f;
     const double z = -double(focus_distance);
-    const double c = (pz[1] - z - pz[0]) * (pz[1] - z - 4 * f - pz[0]);
+    const double a = pz[1] - z - pz[0];
+    const double c = a * (a - 4 * f);
     if (!(c > 0))
         throw std::runtime_error("\"focusdistance\" " + num(focus_distance) +
                                  " m is too close for this lens (focal length " +
                                  num(f * 1000) + " mm)");
-    const double delta = (pz[1] - z + pz[0] - std::sqrt(c)) / 2;
+    // pbrt's delta = (pz1 - z + pz0 - sqrt(c)) / 2 subtracts two numbers of the size of the
+    // focus distance: at 1e20 m the whole correction cancels and the film stays where the
+    // file put it. For a > 0, sqrt(c) = a sqrt(1 - 4f/a) and the same value is
+    // pz0 + 2f / (1 + sqrt(1 - 4f/a)), which tends to the focal point as z -> -infinity.
+    const double delta = a > 0 ? pz[0] + 2 * f / (1 + std::sqrt(1 - 4 * f / a))
+                               : (pz[1] - z + pz[0] - std::sqrt(c)) / 2;
     elements_.back().thickness += delta;
     if (!(elements_.back().thickness > 0))
         throw std::runtime_error("the lens cannot focus at " + num(focus_distance) +

@@ -42,6 +42,27 @@ TEST_CASE("lens system: the thick-lens focal length of a singlet matches the len
     CHECK(lens.rear_z() + 0.001 + 0.001 == doctest::Approx(s_image).epsilon(0.03).scale(0));
 }
 
+TEST_CASE("lens system: focusing at infinity puts the film at the back focal point") {
+    // The film distance grows toward its limit as the focus distance grows, and stays there
+    // for huge values (pbrt's formula cancels to the lens file's own thickness near 1e20).
+    double prev = 0;
+    for (float focus : {1.f, 10.f, 1e3f, 1e6f, 1e12f, 1e20f, 3e38f}) {
+        CAPTURE(focus);
+        LensSystem lens(kSinglet, 4.f, focus, 0.035f, 64, 64);
+        CHECK(lens.rear_z() < (prev > 0 ? prev + 1e-12 : 1.0));
+        prev = lens.rear_z();
+    }
+    LensSystem far(kSinglet, 4.f, 1e6f, 0.035f, 64, 64), farther(kSinglet, 4.f, 3e38f, 0.035f,
+                                                                  64, 64);
+    CHECK(farther.rear_z() == doctest::Approx(far.rear_z()).epsilon(1e-6).scale(0));
+    // A paraxial ray parallel to the axis from the scene lands on the axis at the film.
+    // (Equivalently: rays from one film point leave parallel; checked at the centre.)
+    Vec3f o, d;
+    REQUIRE(farther.generate_ray({32.f, 32.f}, {0.7f, 0.5f}, &o, &d) > 0.f);
+    CHECK(std::abs(d.x / d.z) < 1e-4);
+    CHECK(std::abs(d.y / d.z) < 1e-4);
+}
+
 TEST_CASE("lens system: rays from the film centre meet on the axis at the focus distance") {
     // A 0.5 mm stop keeps the rays paraxial: the singlet's spherical aberration grows with
     // the ray height squared and is magnified s^2 / f^2 in object space (through a 2 mm stop
