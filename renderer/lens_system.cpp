@@ -7,7 +7,6 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
-#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <stdexcept>
@@ -291,7 +290,8 @@ float ApertureImage::bilerp(double u, double v) const {
 
 LensSystem::LensSystem(const std::vector<float> &lens, float aperture_diameter,
                        float focus_distance, float film_diagonal, int width, int height,
-                       ApertureImage aperture, std::vector<std::string> *warnings)
+                       ApertureImage aperture, std::vector<std::string> *warnings,
+                       int pupil_search_log2)
     : aperture_(std::move(aperture)), film_diagonal_(film_diagonal), width_(float(width)),
       height_(float(height)) {
     if (lens.empty() || lens.size() % 4 != 0)
@@ -366,11 +366,12 @@ LensSystem::LensSystem(const std::vector<float> &lens, float aperture_diameter,
     // 2 threads) at the price of a sample-spacing margin twice pbrt's: a looser bound means
     // more samples the lens blocks (more noise per sample), never bias, as each ray's weight
     // carries the bound's area.
+    const uint32_t samples = 1u << std::clamp(pupil_search_log2, 8, 24);
     pupil_.resize(kPupilSegments);
     tbb::parallel_for(0, kPupilSegments, [&](int i) {
         double r0 = double(i) / kPupilSegments * film_diagonal_ / 2;
         double r1 = double(i + 1) / kPupilSegments * film_diagonal_ / 2;
-        pupil_[size_t(i)] = bound_exit_pupil(r0, r1);
+        pupil_[size_t(i)] = bound_exit_pupil(r0, r1, samples);
     });
     bool any = false;
     for (const Bounds &b : pupil_) any |= !b.empty();
@@ -500,8 +501,9 @@ void LensSystem::thick_lens(double pz[2], double fz[2]) const {
 // parts of the shape for film points off the x axis (a square stop loses up to ~10% of the
 // light at 45 degrees). Here the search replaces the image by the circle around it, so the
 // rotated box always contains every ray the image passes.
-LensSystem::Bounds LensSystem::bound_exit_pupil(double film_x0, double film_x1) const {
-    constexpr uint32_t kSamples = 1u << 18;
+LensSystem::Bounds LensSystem::bound_exit_pupil(double film_x0, double film_x1,
+                                                uint32_t samples) const {
+    const uint32_t kSamples = samples;
     Bounds b;
     const double rr = 1.5 * rear_radius();
     for (uint32_t i = 0; i < kSamples; ++i) {

@@ -66,9 +66,11 @@ class LensSystem {
     /// in mm (clamped to the stop's own, with a warning in *warnings); `focus_distance` in
     /// metres; `film_diagonal` in metres; the film resolution in pixels. Throws
     /// std::runtime_error when the lens cannot be focused there or passes no light.
+    /// `pupil_search_log2`: rays per film segment of the exit-pupil search, as a power of two
+    /// (fewer: faster loading, looser bounds, more blocked samples; never bias).
     LensSystem(const std::vector<float> &lens, float aperture_diameter, float focus_distance,
                float film_diagonal, int width, int height, ApertureImage aperture = {},
-               std::vector<std::string> *warnings = nullptr);
+               std::vector<std::string> *warnings = nullptr, int pupil_search_log2 = 18);
 
     /// Camera-space ray for raster position `p_raster` (pixels, (0,0) the top-left corner)
     /// through exit-pupil sample `u`: returns its weight, 0 when the lens system blocks it
@@ -107,7 +109,7 @@ class LensSystem {
     /// Thick-lens cardinal points: pz[0], fz[0] on the film side, pz[1], fz[1] on the scene
     /// side (pbrt-v4 ComputeThickLensApproximation).
     void thick_lens(double pz[2], double fz[2]) const;
-    Bounds bound_exit_pupil(double film_x0, double film_x1) const;
+    Bounds bound_exit_pupil(double film_x0, double film_x1, uint32_t samples) const;
 
     std::vector<LensElement> elements_;
     ApertureImage aperture_;
