@@ -4,6 +4,7 @@
 // of bad references. End-to-end runs: test_converge_render.cpp.
 #include <doctest/doctest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -241,6 +242,38 @@ TEST_CASE("scene content hash covers includes and referenced files, not the fold
     CHECK(h2 != h1);
     test::write_text(copy / "scene.pbrt", std::string(kScene) + "# edited\n");
     CHECK(scene_content_hash((copy / "scene.pbrt").string()) != h2);
+}
+
+TEST_CASE("scene content hash covers the lens file and the goniometric and projection images") {
+    // Files named by string parameters of the camera and of lights count as scene input.
+    fs::path dir = test::temp_dir("converge_hash_optics", true);
+    const std::string scene = (dir / "scene.pbrt").string();
+    test::write_text(dir / "scene.pbrt",
+                     "Film \"rgb\" \"integer xresolution\" 8 \"integer yresolution\" 8\n"
+                     "Camera \"realistic\" \"string lensfile\" \"lenses/singlet.dat\"\n"
+                     "WorldBegin\n"
+                     "LightSource \"goniometric\" \"string filename\" \"gonio.pfm\"\n"
+                     "LightSource \"projection\" \"string filename\" \"maps/slide.pfm\"\n");
+    test::write_text(dir / "lenses" / "singlet.dat", "# r t eta ap\n50 5 1.5 20\n-50 45 1 20\n");
+    write_pfm(dir / "gonio.pfm", 4, 4, 1.f);
+    write_pfm(dir / "maps" / "slide.pfm", 4, 2, 1.f);
+    std::vector<std::string> deps = scene_dependencies(scene);
+    std::vector<std::string> names;
+    for (const std::string &d : deps)
+        names.push_back(fs::proximate(fs::path(d), dir).generic_string());
+    std::sort(names.begin(), names.end());
+    CHECK(names == std::vector<std::string>{"gonio.pfm", "lenses/singlet.dat", "maps/slide.pfm",
+                                            "scene.pbrt"});
+    // Editing any one of them changes the hash.
+    std::string h = scene_content_hash(scene);
+    test::write_text(dir / "lenses" / "singlet.dat", "# r t eta ap\n50 5 1.6 20\n-50 45 1 20\n");
+    std::string h_lens = scene_content_hash(scene);
+    CHECK(h_lens != h);
+    write_pfm(dir / "gonio.pfm", 4, 4, 2.f);
+    std::string h_gonio = scene_content_hash(scene);
+    CHECK(h_gonio != h_lens);
+    write_pfm(dir / "maps" / "slide.pfm", 4, 2, 0.5f);
+    CHECK(scene_content_hash(scene) != h_gonio);
 }
 
 TEST_CASE("reference cache: reused when unchanged, rebuilt when the scene or settings change") {
