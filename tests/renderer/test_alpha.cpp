@@ -4,6 +4,7 @@
 
 #include <sstream>
 
+#include "approx.h"
 #include "render_test_util.h"
 
 using namespace tessera;
@@ -37,14 +38,14 @@ double mean_green(const std::string &text) {
 }  // namespace
 
 TEST_CASE("alpha 1 is opaque, alpha 0 is invisible") {
-    CHECK(mean_green(scene("")) == doctest::Approx(0.0));
-    CHECK(mean_green(scene("\"float alpha\" [ 1 ]")) == doctest::Approx(0.0));
-    CHECK(mean_green(scene("\"float alpha\" [ 0 ]")) == doctest::Approx(1.0));
+    CHECK(mean_green(scene("")) == test::Approx(0.0));
+    CHECK(mean_green(scene("\"float alpha\" [ 1 ]")) == test::Approx(0.0));
+    CHECK(mean_green(scene("\"float alpha\" [ 0 ]")) == test::Approx(1.0));
 }
 
 TEST_CASE("fractional alpha keeps a hit with probability alpha") {
     // 16x16 pixels x 64 samples: the fraction passing is 0.7 within a few standard errors.
-    CHECK(mean_green(scene("\"float alpha\" [ 0.3 ]")) == doctest::Approx(0.7).epsilon(0.03));
+    CHECK(mean_green(scene("\"float alpha\" [ 0.3 ]")) == test::Approx(0.7).epsilon(0.03));
 }
 
 TEST_CASE("an alpha texture cuts out where it is 0") {
@@ -53,7 +54,7 @@ TEST_CASE("an alpha texture cuts out where it is 0") {
     double g = mean_green(scene("\"texture alpha\" \"mask\"", tex));
     // Half the checker cells are holes; the visible part of the quad is symmetric about the
     // cell pattern up to the pixel grid.
-    CHECK(g == doctest::Approx(0.5).epsilon(0.1));
+    CHECK(g == test::Approx(0.5).epsilon(0.1));
 }
 
 TEST_CASE("shadow rays pass through cut-outs") {
@@ -73,6 +74,6 @@ TEST_CASE("shadow rays pass through cut-outs") {
                              "9 9 -3.5  -9 9 -3.5 ] \"integer indices\" [ 0 1 2  0 2 3 ] ";
     double open = mean_green(make(""));
     CHECK(open > 0.05);
-    CHECK(mean_green(make(quad + "\n")) == doctest::Approx(0.0));
-    CHECK(mean_green(make(quad + "\"float alpha\" [ 0 ]\n")) == doctest::Approx(open));
+    CHECK(mean_green(make(quad + "\n")) == test::Approx(0.0));
+    CHECK(mean_green(make(quad + "\"float alpha\" [ 0 ]\n")) == test::Approx(open));
 }

@@ -6,13 +6,14 @@
 #include <random>
 #include <vector>
 
+#include "approx.h"
 #include "chi2.h"
 #include "renderer/bsdf.h"
 #include "renderer/microfacet.h"
 #include "sampling/warp.h"
 
 using namespace tessera;
-using doctest::Approx;
+using tessera::test::Approx;
 
 namespace {
 

@@ -6,6 +6,7 @@
 #include <string>
 #include <vector>
 
+#include "approx.h"
 #include "chi2.h"
 #include "renderer/bsdf.h"
 #include "sampling/warp.h"
@@ -129,11 +130,11 @@ void run_family(const std::string &family) {
 
 TEST_CASE("chi2 helper: p-values of the chi-square distribution") {
     // Reference values: P(X >= x) for chi-square(k).
-    CHECK(test::chi2_p_value(3.841459, 1) == doctest::Approx(0.05).epsilon(1e-5));
-    CHECK(test::chi2_p_value(6.634897, 1) == doctest::Approx(0.01).epsilon(1e-5));
-    CHECK(test::chi2_p_value(2.0, 2) == doctest::Approx(std::exp(-1.0)).epsilon(1e-9));
-    CHECK(test::chi2_p_value(124.342, 100) == doctest::Approx(0.05).epsilon(1e-3));
-    CHECK(test::chi2_p_value(1000.0, 1000) == doctest::Approx(0.4940).epsilon(2e-3));
+    CHECK(test::chi2_p_value(3.841459, 1) == test::Approx(0.05).epsilon(1e-5));
+    CHECK(test::chi2_p_value(6.634897, 1) == test::Approx(0.01).epsilon(1e-5));
+    CHECK(test::chi2_p_value(2.0, 2) == test::Approx(std::exp(-1.0)).epsilon(1e-9));
+    CHECK(test::chi2_p_value(124.342, 100) == test::Approx(0.05).epsilon(1e-3));
+    CHECK(test::chi2_p_value(1000.0, 1000) == test::Approx(0.4940).epsilon(2e-3));
 }
 
 TEST_CASE("chi2 helper: rejects a sampler that does not match its pdf") {
@@ -146,7 +147,7 @@ TEST_CASE("chi2 helper: rejects a sampler that does not match its pdf") {
     opt.sample_count = 100000;
     test::Chi2Result r = test::chi2_sphere("selftest_mismatch", sampler, pdf, opt);
     CHECK_FALSE(r.passed);
-    CHECK(r.pdf_integral == doctest::Approx(1.0).epsilon(1e-4));
+    CHECK(r.pdf_integral == test::Approx(1.0).epsilon(1e-4));
 }
 
 TEST_CASE("chi2: diffuse") {
@@ -190,11 +191,11 @@ TEST_CASE("pdf normalisation of the non-delta lobes") {
         });
     };
     CHECK(integral(DiffuseBxdf{Rgb(1.f)}, dir_from_theta(30.f)) ==
-          doctest::Approx(1.0).epsilon(1e-4));
+          test::Approx(1.0).epsilon(1e-4));
     // At normal incidence the visible normals are D(wm) cos(theta_m), and a reflection leaves
     // the hemisphere exactly when tan^2(theta_m) > 1, which has probability a^2 / (1 + a^2).
     CHECK(integral(ConductorBxdf{TrowbridgeReitz(0.2f, 0.2f), Rgb(1.f), Rgb(5.f)},
-                   dir_from_theta(0.f)) == doctest::Approx(1.0 / (1.0 + 0.04)).epsilon(1e-4));
+                   dir_from_theta(0.f)) == test::Approx(1.0 / (1.0 + 0.04)).epsilon(1e-4));
     // Rough dielectric: reflection + transmission together make 1 (no TIR from outside), less
     // the sampled reflections that leave below the surface and the refractions that leave
     // above it, which have no pdf: 0.9908 here.
@@ -205,5 +206,5 @@ TEST_CASE("pdf normalisation of the non-delta lobes") {
     // Smooth coat: the non-delta part has mass 1 - p_coat.
     CoatedDiffuseBxdf coat(Rgb(0.5f), 1.5f, TrowbridgeReitz(0.f, 0.f));
     Vec3f wo = dir_from_theta(40.f);
-    CHECK(integral(coat, wo) == doctest::Approx(1.0 - coat.coat_probability(wo)).epsilon(1e-4));
+    CHECK(integral(coat, wo) == test::Approx(1.0 - coat.coat_probability(wo)).epsilon(1e-4));
 }

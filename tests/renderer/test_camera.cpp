@@ -3,6 +3,7 @@
 
 #include <sstream>
 
+#include "approx.h"
 #include "render_test_util.h"
 
 using namespace tessera;
@@ -33,16 +34,16 @@ double coverage(const std::string &camera, float z) {
 TEST_CASE("orthographic: the screen window maps to world units, whatever the distance") {
     // Screen window [-1, 1]^2 is 2x2 world units: the unit square covers a quarter of it.
     const std::string ortho = "Camera \"orthographic\"";
-    CHECK(coverage(ortho, 2.f) == doctest::Approx(0.25).epsilon(0.01));
-    CHECK(coverage(ortho, 20.f) == doctest::Approx(0.25).epsilon(0.01));
+    CHECK(coverage(ortho, 2.f) == test::Approx(0.25).epsilon(0.01));
+    CHECK(coverage(ortho, 20.f) == test::Approx(0.25).epsilon(0.01));
     // screenwindow scales the view.
     CHECK(coverage("Camera \"orthographic\" \"float screenwindow\" [ -0.5 0.5 -0.5 0.5 ]", 5.f) ==
-          doctest::Approx(1.0).epsilon(0.01));
+          test::Approx(1.0).epsilon(0.01));
 }
 
 TEST_CASE("perspective: fov spans the shorter axis; the square shrinks with distance") {
     // fov 90: at distance z the view is 2z wide, so the square covers (1 / 2z)^2.
     const std::string persp = "Camera \"perspective\" \"float fov\" [ 90 ]";
-    CHECK(coverage(persp, 1.f) == doctest::Approx(0.25).epsilon(0.02));
-    CHECK(coverage(persp, 2.f) == doctest::Approx(0.0625).epsilon(0.03));
+    CHECK(coverage(persp, 1.f) == test::Approx(0.25).epsilon(0.02));
+    CHECK(coverage(persp, 2.f) == test::Approx(0.0625).epsilon(0.03));
 }

@@ -7,6 +7,7 @@
 #include <cstring>
 #include <filesystem>
 
+#include "approx.h"
 #include "renderer/checkpoint.h"
 #include "renderer/image_io.h"
 #include "renderer/scene_desc.h"
@@ -86,7 +87,7 @@ TEST_CASE("checkpoint round trip restores every pixel's state bit for bit, for a
         CheckpointState st2 = read_checkpoint(path, back);
         CHECK(st2.passes == 4);
         CHECK(st2.seed == 77);
-        CHECK(st2.elapsed_s == doctest::Approx(1.5));
+        CHECK(st2.elapsed_s == test::Approx(1.5));
         CHECK(st2.scene == "scene.pbrt");
         CHECK(st2.settings == "adaptive error=0.01");
         check_same_state(film, back);

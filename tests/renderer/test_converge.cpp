@@ -11,6 +11,7 @@
 #include <limits>
 #include <sstream>
 
+#include "approx.h"
 #include "render_test_util.h"
 #include "renderer/converge.h"
 #include "renderer/image_io.h"
@@ -81,23 +82,23 @@ TEST_CASE("metrics of a snapshot against hand-computed values (MSE, relMSE, RMSE
     sampling::RgbImage ref(2, 1, std::vector<float>{1, 0, 0.5f, 0, 2, 0.5f});
     sampling::RgbImage test(2, 1, std::vector<float>{1.5f, 0, 0.5f, 0, 1, 0.25f});
     sampling::ImageComparison m = sampling::compare_images(test, ref, 1.0);
-    CHECK(m.mse.channel[0] == doctest::Approx(0.125));
-    CHECK(m.mse.channel[1] == doctest::Approx(0.5));
-    CHECK(m.mse.channel[2] == doctest::Approx(0.03125));
-    CHECK(m.mse.total == doctest::Approx(0.21875));
+    CHECK(m.mse.channel[0] == test::Approx(0.125));
+    CHECK(m.mse.channel[1] == test::Approx(0.5));
+    CHECK(m.mse.channel[2] == test::Approx(0.03125));
+    CHECK(m.mse.total == test::Approx(0.21875));
     // relMSE: (v - ref)^2 / (ref^2 + 0.01), averaged over the two pixels.
-    CHECK(m.rel_mse.channel[0] == doctest::Approx(0.25 / 1.01 / 2));
-    CHECK(m.rel_mse.channel[1] == doctest::Approx(1.0 / 4.01 / 2));
-    CHECK(m.rel_mse.channel[2] == doctest::Approx(0.0625 / 0.26 / 2));
-    CHECK(m.rel_mse.total == doctest::Approx((0.25 / 1.01 + 1.0 / 4.01 + 0.0625 / 0.26) / 6));
-    CHECK(m.rmse.channel[1] == doctest::Approx(std::sqrt(0.5)));
-    CHECK(m.rmse.total == doctest::Approx(std::sqrt(0.21875)));
-    CHECK(m.psnr.total == doctest::Approx(10 * std::log10(1 / 0.21875)));
-    CHECK(m.mae.channel[0] == doctest::Approx(0.25));
-    CHECK(m.mae.channel[1] == doctest::Approx(0.5));
-    CHECK(m.mae.channel[2] == doctest::Approx(0.125));
-    CHECK(m.mae.total == doctest::Approx(0.875 / 3));
-    CHECK(headline_value(m, "mae") == doctest::Approx(0.875 / 3));
+    CHECK(m.rel_mse.channel[0] == test::Approx(0.25 / 1.01 / 2));
+    CHECK(m.rel_mse.channel[1] == test::Approx(1.0 / 4.01 / 2));
+    CHECK(m.rel_mse.channel[2] == test::Approx(0.0625 / 0.26 / 2));
+    CHECK(m.rel_mse.total == test::Approx((0.25 / 1.01 + 1.0 / 4.01 + 0.0625 / 0.26) / 6));
+    CHECK(m.rmse.channel[1] == test::Approx(std::sqrt(0.5)));
+    CHECK(m.rmse.total == test::Approx(std::sqrt(0.21875)));
+    CHECK(m.psnr.total == test::Approx(10 * std::log10(1 / 0.21875)));
+    CHECK(m.mae.channel[0] == test::Approx(0.25));
+    CHECK(m.mae.channel[1] == test::Approx(0.5));
+    CHECK(m.mae.channel[2] == test::Approx(0.125));
+    CHECK(m.mae.total == test::Approx(0.875 / 3));
+    CHECK(headline_value(m, "mae") == test::Approx(0.875 / 3));
     CHECK(headline_value(m, "relmse") == m.rel_mse.total);
     CHECK_THROWS_AS(headline_value(m, "psnr"), std::invalid_argument);
 
@@ -113,11 +114,11 @@ TEST_CASE("snapshots are log-spaced from the first time to the budget") {
     CHECK(t.front() == 0.5);
     CHECK(t.back() == 8.0);  // exactly the budget
     for (size_t i = 0; i + 1 < t.size(); ++i)
-        CHECK(t[i + 1] / t[i] == doctest::Approx(2.0));
+        CHECK(t[i + 1] / t[i] == test::Approx(2.0));
     std::vector<double> u = sampling::log_spaced_times(0.1, 60, 8);
     const double ratio = std::pow(600.0, 1.0 / 7);
     for (size_t i = 0; i + 1 < u.size(); ++i)
-        CHECK(u[i + 1] / u[i] == doctest::Approx(ratio));
+        CHECK(u[i + 1] / u[i] == test::Approx(ratio));
     CHECK(sampling::log_spaced_times(0.2, 3, 1) == std::vector<double>{3});
     CHECK(sampling::log_spaced_times(2, 2, 3) == std::vector<double>{2, 2, 2});
     CHECK_THROWS_AS(sampling::log_spaced_times(0, 1, 3), std::invalid_argument);
@@ -133,8 +134,8 @@ TEST_CASE("log-log fit of a power law; unusable points are skipped") {
     sampling::LogLogFit f = sampling::fit_loglog(t, e);
     CHECK(f.valid);
     CHECK(f.points == 5);
-    CHECK(f.slope == doctest::Approx(-1.0));
-    CHECK(f.intercept == doctest::Approx(std::log10(3.0)));
+    CHECK(f.slope == test::Approx(-1.0));
+    CHECK(f.intercept == test::Approx(std::log10(3.0)));
     std::vector<double> one_t{1}, one_e{1};
     CHECK(!sampling::fit_loglog(one_t, one_e).valid);
     std::vector<double> same_t{2, 2}, two_e{1, 0.5};
@@ -146,10 +147,10 @@ TEST_CASE("time to reach an error: log-log interpolation, before the first, not 
     std::vector<double> t{1, 2, 4, 8}, e{1, 0.5, 0.25, 0.125};  // e = 1 / t
     sampling::Crossing c = sampling::time_to_reach(t, e, 0.35);
     CHECK(c.kind == sampling::Crossing::Kind::reached);
-    CHECK(c.time_s == doctest::Approx(1 / 0.35));  // exact on a power law
+    CHECK(c.time_s == test::Approx(1 / 0.35));  // exact on a power law
     c = sampling::time_to_reach(t, e, 0.25);
     CHECK(c.kind == sampling::Crossing::Kind::reached);
-    CHECK(c.time_s == doctest::Approx(4.0));
+    CHECK(c.time_s == test::Approx(4.0));
     c = sampling::time_to_reach(t, e, 2.0);
     CHECK(c.kind == sampling::Crossing::Kind::before_first);
     CHECK(c.time_s == 1.0);
@@ -177,9 +178,9 @@ TEST_CASE("headline levels, table and CSV of a result") {
     }
     r.levels = default_levels(r);
     REQUIRE(r.levels.size() == 3);
-    CHECK(r.levels[2] == doctest::Approx(0.125));  // the worst final error
-    CHECK(r.levels[1] == doctest::Approx(0.25));
-    CHECK(r.levels[0] == doctest::Approx(0.5));
+    CHECK(r.levels[2] == test::Approx(0.125));  // the worst final error
+    CHECK(r.levels[1] == test::Approx(0.25));
+    CHECK(r.levels[0] == test::Approx(0.5));
     for (size_t i = 0; i < 2; ++i) {
         std::vector<double> t, e;
         for (const ConvergenceRow &x : r.rows)

@@ -10,6 +10,7 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
+#include "approx.h"
 #include "render_test_util.h"
 #include "renderer/converge.h"
 #include "test_helpers.h"
@@ -57,10 +58,10 @@ TEST_CASE("converge writes CSV and JSON rows per sampler and snapshot, with imag
 
     // The schedule: log-spaced from time / 32 to the budget.
     REQUIRE(r.snapshot_times.size() == 4);
-    CHECK(r.snapshot_times.front() == doctest::Approx(0.4 / 32));
+    CHECK(r.snapshot_times.front() == test::Approx(0.4 / 32));
     CHECK(r.snapshot_times.back() == 0.4);
     CHECK(r.snapshot_times[2] / r.snapshot_times[1] ==
-          doctest::Approx(r.snapshot_times[1] / r.snapshot_times[0]));
+          test::Approx(r.snapshot_times[1] / r.snapshot_times[0]));
     CHECK(r.reference_rendered);
     CHECK(r.reference_noise_mse >= 0);
 
@@ -116,7 +117,7 @@ TEST_CASE("converge writes CSV and JSON rows per sampler and snapshot, with imag
                     CHECK(std::isfinite(row[m][c].get<double>()));
                 }
             CHECK(row["mse"]["total"].get<double>() ==
-                  doctest::Approx(row["rmse"]["total"].get<double>() *
+                  test::Approx(row["rmse"]["total"].get<double>() *
                                   row["rmse"]["total"].get<double>()));
         }
         CHECK(last_t <= 0.4 + 0.25);  // chunks stop at tile granularity

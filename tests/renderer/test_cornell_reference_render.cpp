@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdio>
 
+#include "approx.h"
 #include "render_test_util.h"
 #include "renderer/image_io.h"
 #include "test_helpers.h"
@@ -66,7 +67,7 @@ TEST_CASE("Cornell box: image means agree with Tungsten and Mitsuba 3 within 1%"
         for (int c = 0; c < 3; ++c) {
             double m = image_mean(img, c), r = image_mean(ref, c);
             INFO(ref_file << " channel " << c << ": tessera " << m << ", reference " << r);
-            CHECK(m == doctest::Approx(r).epsilon(0.01).scale(0));
+            CHECK(m == test::Approx(r).epsilon(0.01).scale(0));
         }
     }
 }
@@ -94,7 +95,7 @@ TEST_CASE("Cornell box: 8x8-pixel block means agree with Tungsten and Mitsuba 3 
                 double ta = a.at(x, y, 0) + a.at(x, y, 1) + a.at(x, y, 2);
                 double tb = b.at(x, y, 0) + b.at(x, y, 1) + b.at(x, y, 2);
                 INFO(ref_file << " block " << x << "," << y);
-                CHECK(ta == doctest::Approx(tb).epsilon(0.03).scale(0));
+                CHECK(ta == test::Approx(tb).epsilon(0.03).scale(0));
             }
     }
 }

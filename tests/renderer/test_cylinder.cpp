@@ -4,6 +4,7 @@
 
 #include <cmath>
 
+#include "approx.h"
 #include "render_test_util.h"
 #include "renderer/geometry.h"
 
@@ -29,17 +30,17 @@ TEST_CASE("cylinder: pbrt-v4 defaults (radius 1, z in [-1, 1]), outward normal, 
     // From +x toward the axis at z = 0.5: hits x = 1.
     auto h = hit(*sc, {5, 0, 0.5f}, {-1, 0, 0});
     REQUIRE(h);
-    CHECK(h->t == doctest::Approx(4.f).epsilon(1e-6));
-    CHECK(h->p.x == doctest::Approx(1.f).epsilon(1e-6));
-    CHECK(h->p.z == doctest::Approx(0.5f).epsilon(1e-6));
-    CHECK(h->n.x == doctest::Approx(1.f));  // away from the axis
-    CHECK(h->n.y == doctest::Approx(0.f));
-    CHECK(h->n.z == doctest::Approx(0.f));
-    CHECK(h->uv.x == doctest::Approx(0.f).epsilon(1e-6));  // phi = 0
-    CHECK(h->uv.y == doctest::Approx(0.75f));              // (0.5 - -1) / 2
+    CHECK(h->t == test::Approx(4.f).epsilon(1e-6));
+    CHECK(h->p.x == test::Approx(1.f).epsilon(1e-6));
+    CHECK(h->p.z == test::Approx(0.5f).epsilon(1e-6));
+    CHECK(h->n.x == test::Approx(1.f));  // away from the axis
+    CHECK(h->n.y == test::Approx(0.f));
+    CHECK(h->n.z == test::Approx(0.f));
+    CHECK(h->uv.x == test::Approx(0.f).epsilon(1e-6));  // phi = 0
+    CHECK(h->uv.y == test::Approx(0.75f));              // (0.5 - -1) / 2
     // dpdu = phimax * (-y, x, 0), dpdv = (0, 0, zmax - zmin).
-    CHECK(h->dpdu.y == doctest::Approx(2 * kPi));
-    CHECK(h->dpdv.z == doctest::Approx(2.f));
+    CHECK(h->dpdu.y == test::Approx(2 * kPi));
+    CHECK(h->dpdv.z == test::Approx(2.f));
     // The error bound keeps a spawned ray off the surface on both sides.
     Ray out = h->spawn_ray({1, 0, 0});
     CHECK(out.o.x > 1.f);
@@ -48,15 +49,15 @@ TEST_CASE("cylinder: pbrt-v4 defaults (radius 1, z in [-1, 1]), outward normal, 
     CHECK(in.o.x < 1.f);
     auto far = sc->geometry->intersect(in);
     REQUIRE(far);
-    CHECK(far->p.x == doctest::Approx(-1.f).epsilon(1e-6));
-    CHECK(far->n.x == doctest::Approx(-1.f));  // still away from the axis, seen from inside
+    CHECK(far->p.x == test::Approx(-1.f).epsilon(1e-6));
+    CHECK(far->n.x == test::Approx(-1.f));  // still away from the axis, seen from inside
 
     // At phi = 90 degrees: u = 0.25.
     auto h90 = hit(*sc, {0, 3, -0.25f}, {0, -1, 0});
     REQUIRE(h90);
-    CHECK(h90->uv.x == doctest::Approx(0.25f));
-    CHECK(h90->uv.y == doctest::Approx(0.375f));
-    CHECK(h90->n.y == doctest::Approx(1.f));
+    CHECK(h90->uv.x == test::Approx(0.25f));
+    CHECK(h90->uv.y == test::Approx(0.375f));
+    CHECK(h90->n.y == test::Approx(1.f));
 }
 
 TEST_CASE("cylinder: open ends, z range, phimax and rays along the axis") {
@@ -73,13 +74,13 @@ TEST_CASE("cylinder: open ends, z range, phimax and rays along the axis") {
     // hits the inside of the kept half at y = +0.5.
     auto h = hit(*sc, {0.1f, -5, 1}, {0, 1, 0});
     REQUIRE(h);
-    CHECK(h->p.y == doctest::Approx(std::sqrt(0.25f - 0.01f)).epsilon(1e-5));
+    CHECK(h->p.y == test::Approx(std::sqrt(0.25f - 0.01f)).epsilon(1e-5));
     CHECK(h->n.y > 0.9f);
     // Slanted through the open top: hits the inside wall.
     auto in = hit(*sc, {0, 0.1f, 3}, {0, 0.2f, -1});
     REQUIRE(in);
-    CHECK(in->p.y == doctest::Approx(0.5f).epsilon(1e-5));
-    CHECK(in->p.z == doctest::Approx(3.f - 0.4f / 0.2f).epsilon(1e-5));
+    CHECK(in->p.y == test::Approx(0.5f).epsilon(1e-5));
+    CHECK(in->p.z == test::Approx(3.f - 0.4f / 0.2f).epsilon(1e-5));
 }
 
 TEST_CASE("cylinder: transforms, zmin > zmax swapped, ReverseOrientation flips the normal") {
@@ -89,15 +90,15 @@ TEST_CASE("cylinder: transforms, zmin > zmax swapped, ReverseOrientation flips t
     REQUIRE(sc);
     auto h = hit(*sc, {0.5f, 2, 5}, {0, 0, -1});
     REQUIRE(h);
-    CHECK(h->p.z == doctest::Approx(0.25f).epsilon(1e-5));
-    CHECK(h->n.z == doctest::Approx(1.f).epsilon(1e-5));
+    CHECK(h->p.z == test::Approx(0.25f).epsilon(1e-5));
+    CHECK(h->n.z == test::Approx(1.f).epsilon(1e-5));
     CHECK_FALSE(hit(*sc, {1.5f, 2, 5}, {0, 0, -1}));  // beyond the (swapped) z range
 
     auto rev = cylinder_scene("", "ReverseOrientation");
     REQUIRE(rev);
     auto hr = hit(*rev, {5, 0, 0}, {-1, 0, 0});
     REQUIRE(hr);
-    CHECK(hr->n.x == doctest::Approx(-1.f));
+    CHECK(hr->n.x == test::Approx(-1.f));
 }
 
 TEST_CASE("cylinder: a diffuse cylinder under a uniform sky renders albedo x sky where it is seen") {
@@ -121,11 +122,12 @@ Shape "cylinder" "float radius" [ 0.4 ] "float zmin" [ -0.5 ] "float zmax" [ 0.5
     // Coverage of the [-1,1]^2 screen: (2 * 0.4) * 1.0 / 4 = 0.2; the rest is the sky (1).
     const double coverage = 0.2;
     const double expect = 1.0 - (1.0 - a) * coverage;
-    for (int c = 0; c < 3; ++c) CHECK(test::image_mean(img, c) == doctest::Approx(expect).epsilon(0.01));
+    for (int c = 0; c < 3; ++c)
+        CHECK(test::image_mean(img, c) == test::Approx(expect).epsilon(0.01));
     // The centre pixel is on the cylinder, a corner on the sky.
     const size_t centre = (32 * 64 + 32) * 3, corner = 0;
-    CHECK(img.data[centre] == doctest::Approx(a).epsilon(0.05));
-    CHECK(img.data[corner] == doctest::Approx(1.f).epsilon(1e-4));
+    CHECK(img.data[centre] == test::Approx(a).epsilon(0.05));
+    CHECK(img.data[corner] == test::Approx(1.f).epsilon(1e-4));
 }
 
 TEST_CASE("cylinder emitter (and a partial sphere): light, BSDF and MIS estimates agree") {
@@ -161,7 +163,7 @@ AttributeEnd
                b = test::image_mean(bsdf, c);
         INFO("channel " << c << ": MIS " << m << ", light " << l << ", BSDF " << b);
         CHECK(m > 0.02);
-        CHECK(l == doctest::Approx(m).epsilon(0.03));
-        CHECK(b == doctest::Approx(m).epsilon(0.03));
+        CHECK(l == test::Approx(m).epsilon(0.03));
+        CHECK(b == test::Approx(m).epsilon(0.03));
     }
 }

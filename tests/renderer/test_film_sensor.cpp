@@ -4,6 +4,7 @@
 #include <cmath>
 #include <sstream>
 
+#include "approx.h"
 #include "render_test_util.h"
 #include "renderer/spectra.h"
 
@@ -31,24 +32,24 @@ std::string emitter_scene(const std::string &film_extra, const std::string &came
 
 TEST_CASE("Film iso and the camera's shutter time scale the image as pbrt-v4's sensor does") {
     auto plain = scene_from_string(emitter_scene("", ""));
-    CHECK(render_image(*plain).at(1, 1, 2) == doctest::Approx(4.0));
+    CHECK(render_image(*plain).at(1, 1, 2) == test::Approx(4.0));
     // imagingRatio = (shutterclose - shutteropen) * iso / 100 = 0.5 * 600 / 100 = 3.
     auto bright = scene_from_string(emitter_scene("\"float iso\" [ 600 ]",
                                                   "\"float shutteropen\" [ 0.25 ] "
                                                   "\"float shutterclose\" [ 0.75 ]"));
-    CHECK(bright->settings.image_scale == doctest::Approx(3.0));
+    CHECK(bright->settings.image_scale == test::Approx(3.0));
     sampling::RgbImage img = render_image(*bright);
-    CHECK(img.at(1, 1, 0) == doctest::Approx(6.0));
-    CHECK(img.at(2, 2, 2) == doctest::Approx(12.0));
+    CHECK(img.at(1, 1, 0) == test::Approx(6.0));
+    CHECK(img.at(2, 2, 2) == test::Approx(12.0));
 }
 
 TEST_CASE("Film maxcomponentvalue scales a sample so that its largest component fits") {
     auto sc = scene_from_string(emitter_scene("\"float maxcomponentvalue\" [ 2 ]", ""));
     sampling::RgbImage img = render_image(*sc);
     // (2, 3, 4) * 2/4 = (1, 1.5, 2): the hue is kept.
-    CHECK(img.at(1, 1, 0) == doctest::Approx(1.0));
-    CHECK(img.at(1, 1, 1) == doctest::Approx(1.5));
-    CHECK(img.at(1, 1, 2) == doctest::Approx(2.0));
+    CHECK(img.at(1, 1, 0) == test::Approx(1.0));
+    CHECK(img.at(1, 1, 1) == test::Approx(1.5));
+    CHECK(img.at(1, 1, 2) == test::Approx(2.0));
 }
 
 TEST_CASE("--clamp (SceneOverrides::max_component) is the same clamp and wins over the file") {
@@ -57,8 +58,8 @@ TEST_CASE("--clamp (SceneOverrides::max_component) is the same clamp and wins ov
     auto sc = scene_from_string(emitter_scene("\"float maxcomponentvalue\" [ 100 ]", ""), ov);
     CHECK(sc->settings.max_component == 2.f);
     sampling::RgbImage img = render_image(*sc);
-    CHECK(img.at(1, 1, 0) == doctest::Approx(1.0));
-    CHECK(img.at(1, 1, 2) == doctest::Approx(2.0));
+    CHECK(img.at(1, 1, 0) == test::Approx(1.0));
+    CHECK(img.at(1, 1, 2) == test::Approx(2.0));
     // Off by default; a clamp of 0 or below is rejected with its origin.
     CHECK(std::isinf(scene_from_string(emitter_scene("", ""))->settings.max_component));
     CHECK_THROWS_WITH_AS(scene_from_string(emitter_scene("\"float maxcomponentvalue\" [ 0 ]", "")),
@@ -81,12 +82,12 @@ TEST_CASE("Film whitebalance maps the white of illuminant D(T) to the sRGB white
     CHECK(g > b);
     // The matrix's rows summed (its image of (1, 1, 1)).
     std::array<float, 9> m = white_balance_srgb(daylight_xy(9000.f), kSrgbWhiteXy);
-    CHECK(r == doctest::Approx(m[0] + m[1] + m[2]).epsilon(1e-5));
-    CHECK(g == doctest::Approx(m[3] + m[4] + m[5]).epsilon(1e-5));
-    CHECK(b == doctest::Approx(m[6] + m[7] + m[8]).epsilon(1e-5));
+    CHECK(r == test::Approx(m[0] + m[1] + m[2]).epsilon(1e-5));
+    CHECK(g == test::Approx(m[3] + m[4] + m[5]).epsilon(1e-5));
+    CHECK(b == test::Approx(m[6] + m[7] + m[8]).epsilon(1e-5));
     // 6500 K is D65 to within the CCT rescaling: white stays white (within 0.5%).
     sampling::RgbImage d65 = render_image(*scene_with("\"float whitebalance\" [ 6500 ]"));
-    for (int c = 0; c < 3; ++c) CHECK(d65.at(1, 1, c) == doctest::Approx(1.0).epsilon(0.005));
+    for (int c = 0; c < 3; ++c) CHECK(d65.at(1, 1, c) == test::Approx(1.0).epsilon(0.005));
     // 0 (the default) is off; a negative temperature is an error with the file's line.
     CHECK_FALSE(scene_with("\"float whitebalance\" [ 0 ]")->settings.white_balanced);
     CHECK_THROWS_WITH(scene_with("\"float whitebalance\" [ -5 ]"),
@@ -95,6 +96,6 @@ TEST_CASE("Film whitebalance maps the white of illuminant D(T) to the sRGB white
     // white-balances when it writes the pixel: (1, 1, 1) -> (0.5, 0.5, 0.5) -> 0.5 (r, g, b).
     sampling::RgbImage clamped = render_image(
         *scene_with("\"float whitebalance\" [ 9000 ] \"float maxcomponentvalue\" [ 0.5 ]"));
-    CHECK(clamped.at(1, 1, 0) == doctest::Approx(0.5 * r).epsilon(1e-5));
-    CHECK(clamped.at(1, 1, 2) == doctest::Approx(0.5 * b).epsilon(1e-5));
+    CHECK(clamped.at(1, 1, 0) == test::Approx(0.5 * r).epsilon(1e-5));
+    CHECK(clamped.at(1, 1, 2) == test::Approx(0.5 * b).epsilon(1e-5));
 }

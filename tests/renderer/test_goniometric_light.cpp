@@ -4,6 +4,7 @@
 
 #include <cmath>
 
+#include "approx.h"
 #include "render_test_util.h"
 #include "renderer/image_io.h"
 #include "renderer/lights.h"
@@ -48,8 +49,8 @@ TEST_CASE("goniometric light: the map's pole is the light's +y (pbrt-v4's y/z sw
                                 up + "\" \"rgb I\" [ 2 2 2 ]\n");
     REQUIRE(sc);
     const GoniometricLight &g = only_goniometric(*sc);
-    CHECK(g.intensity({0, 1, 0}).g == doctest::Approx(2.f));
-    CHECK(g.intensity({0.7f, 0.3f, -0.6f}).g == doctest::Approx(2.f));
+    CHECK(g.intensity({0, 1, 0}).g == test::Approx(2.f));
+    CHECK(g.intensity({0.7f, 0.3f, -0.6f}).g == test::Approx(2.f));
     CHECK(g.intensity({0, -1, 0}).g == 0.f);
     CHECK(g.intensity({0.5f, -0.2f, 0.8f}).g == 0.f);
     // Power 4 pi I times the lit share of the map's pixels (half the sphere, less the pixels
@@ -60,8 +61,8 @@ TEST_CASE("goniometric light: the map's pole is the light's +y (pbrt-v4's y/z sw
             lit_pixels += sampling::equal_area_square_to_sphere({(x + 0.5f) / 64, (y + 0.5f) / 64}).z > 0;
     CHECK(lit_pixels > 1900);
     CHECK(lit_pixels < 2048);
-    CHECK(g.phi().g == doctest::Approx(4 * M_PI * 2 * lit_pixels / 4096.0).epsilon(1e-5).scale(0));
-    CHECK(g.image_mean() == doctest::Approx(lit_pixels / 4096.0).epsilon(1e-6).scale(0));
+    CHECK(g.phi().g == test::Approx(4 * M_PI * 2 * lit_pixels / 4096.0).epsilon(1e-5).scale(0));
+    CHECK(g.image_mean() == test::Approx(lit_pixels / 4096.0).epsilon(1e-6).scale(0));
 
     // Rotated so that the light's +y points along render +z: a point at z = +2 is lit with
     // I / d^2, one at z = -2 is not.
@@ -72,8 +73,8 @@ TEST_CASE("goniometric light: the map's pole is the light's +y (pbrt-v4's y/z sw
     const GoniometricLight &r = only_goniometric(*rot);
     auto lit = r.sample_li(LightSampleContext{{0, 0, 2}, {0, 0, -1}}, {0.5f, 0.5f});
     REQUIRE(lit);
-    CHECK(lit->L.g == doctest::Approx(2.f / 4.f));
-    CHECK(lit->wi.z == doctest::Approx(-1.f));
+    CHECK(lit->L.g == test::Approx(2.f / 4.f));
+    CHECK(lit->wi.z == test::Approx(-1.f));
     CHECK(lit->pdf == 1.f);
     // Nothing toward z < 0: no sample, as for a spot light outside its cone.
     CHECK(!r.sample_li(LightSampleContext{{0, 0, -2}, {0, 0, 1}}, {0.5f, 0.5f}));
@@ -100,7 +101,7 @@ TEST_CASE("goniometric light: a constant map is the point light of the same I an
         for (int c = 0; c < 3; ++c) {
             CAPTURE(c);
             CHECK(image_mean(a, c) > 0.0);
-            CHECK(image_mean(b, c) == doctest::Approx(image_mean(a, c)).epsilon(1e-5).scale(0));
+            CHECK(image_mean(b, c) == test::Approx(image_mean(a, c)).epsilon(1e-5).scale(0));
         }
     }
 }

@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "approx.h"
 #include "renderer/color.h"
 #include "renderer/diff.h"
 #include "renderer/image_io.h"
@@ -104,7 +105,7 @@ TEST_CASE("EXR half keeps half precision; depth and spp stay float") {
     sampling::RgbImage beauty = read_image_rgb(path);
     std::vector<float> expected = film.beauty_rgb();
     for (size_t i = 0; i < expected.size(); ++i)
-        CHECK(beauty.data[i] == doctest::Approx(expected[i]).epsilon(1.0 / 1024));
+        CHECK(beauty.data[i] == test::Approx(expected[i]).epsilon(1.0 / 1024));
     uint32_t w = 0, h = 0;
     std::vector<float> depth = read_image_channels(path, {"depth.Z"}, w, h);
     std::vector<float> spp = read_image_channels(path, {"spp.Y"}, w, h);
@@ -306,17 +307,17 @@ TEST_CASE("tessera diff prints metrics and fails on bad input") {
     std::string label;
     double r = 0, g = 0, bb = 0, total = 0;
     mse_row >> label >> r >> g >> bb >> total;
-    CHECK(r == doctest::Approx(0.005).epsilon(1e-4));
-    CHECK(g == doctest::Approx(0.5).epsilon(1e-4));
-    CHECK(bb == doctest::Approx(0.02).epsilon(1e-4));
-    CHECK(total == doctest::Approx(0.175).epsilon(1e-4));
+    CHECK(r == test::Approx(0.005).epsilon(1e-4));
+    CHECK(g == test::Approx(0.5).epsilon(1e-4));
+    CHECK(bb == test::Approx(0.02).epsilon(1e-4));
+    CHECK(total == test::Approx(0.175).epsilon(1e-4));
     std::istringstream rel_row(row("relMSE"));
     rel_row >> label >> r >> g;
-    CHECK(g == doctest::Approx(50.0).epsilon(1e-4));
+    CHECK(g == test::Approx(50.0).epsilon(1e-4));
     CHECK(!row("PSNR").empty());
     std::istringstream mean_row(row("mean(B)"));
     mean_row >> label >> r >> g >> bb;
-    CHECK(bb == doctest::Approx(0.25).epsilon(1e-4));
+    CHECK(bb == test::Approx(0.25).epsilon(1e-4));
 
     std::vector<ImageLayer> c = {{"", {"R", "G", "B"}, std::vector<float>(12, 0.f), false}};
     std::string pc = (dir / "c.exr").string();

@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "approx.h"
 #include "render_test_util.h"
 #include "renderer/image_io.h"
 #include "test_helpers.h"
@@ -110,7 +111,7 @@ void check_same_image(const std::string &body, const char *tag) {
         double ma = image_mean(a, c), mb = image_mean(b, c);
         CAPTURE(c);
         REQUIRE(mb > 0.01);
-        CHECK(ma == doctest::Approx(mb).epsilon(0.005));
+        CHECK(ma == test::Approx(mb).epsilon(0.005));
         ok = ok && std::abs(ma - mb) <= 0.005 * mb;
     }
     sampling::ImageComparison cmp = sampling::compare_images(a, b, 1.0);
@@ -164,6 +165,6 @@ AttributeEnd
     sampling::RgbImage b = render_image(*b_sc, 0, &st);
     for (int c = 0; c < 3; ++c) {
         REQUIRE(image_mean(b, c) > 0.01);
-        CHECK(image_mean(a, c) == doctest::Approx(image_mean(b, c)).epsilon(0.005));
+        CHECK(image_mean(a, c) == test::Approx(image_mean(b, c)).epsilon(0.005));
     }
 }

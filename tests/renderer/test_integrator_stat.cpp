@@ -6,6 +6,7 @@
 #include <cstring>
 #include <sstream>
 
+#include "approx.h"
 #include "render_test_util.h"
 #include "renderer/path_integrator.h"
 #include "test_helpers.h"
@@ -46,7 +47,7 @@ TEST_CASE("white furnace: albedo-1 diffuse objects under a uniform environment s
                     "Shape \"disk\" \"float radius\" [ 0.4 ]\nAttributeEnd\n";
     auto scene = scene_from_string(s);
     sampling::RgbImage img = render_image(*scene);
-    for (int c = 0; c < 3; ++c) CHECK(image_mean(img, c) == doctest::Approx(1.0).epsilon(0.005));
+    for (int c = 0; c < 3; ++c) CHECK(image_mean(img, c) == test::Approx(1.0).epsilon(0.005));
     // Russian roulette makes single pixels noisy but unbiased; the mean is the contract, and
     // no pixel may deviate wildly.
     CHECK(max_rel_dev(img, 1.0) < 0.25);
@@ -59,7 +60,7 @@ TEST_CASE("white furnace: a smooth glass sphere conserves energy") {
                     "Shape \"sphere\" \"float radius\" [ 1 ]\n";
     auto scene = scene_from_string(s);
     sampling::RgbImage img = render_image(*scene);
-    for (int c = 0; c < 3; ++c) CHECK(image_mean(img, c) == doctest::Approx(1.0).epsilon(0.005));
+    for (int c = 0; c < 3; ++c) CHECK(image_mean(img, c) == test::Approx(1.0).epsilon(0.005));
 }
 
 TEST_CASE("sphere furnace: albedo a and emission e inside a closed sphere give e / (1 - a)") {
@@ -78,7 +79,7 @@ TEST_CASE("sphere furnace: albedo a and emission e inside a closed sphere give e
         double expected = 1.0 / (1.0 - a);
         INFO("albedo " << a);
         for (int c = 0; c < 3; ++c)
-            CHECK(image_mean(img, c) == doctest::Approx(expected).epsilon(0.01));
+            CHECK(image_mean(img, c) == test::Approx(expected).epsilon(0.01));
     }
 }
 
@@ -133,8 +134,8 @@ TEST_CASE("MIS consistency: light-only, BSDF-only and MIS estimates agree") {
         double m = image_mean(mis, c), l = image_mean(light, c), b = image_mean(bsdf, c);
         INFO("channel " << c << ": MIS " << m << ", light " << l << ", BSDF " << b);
         CHECK(m > 0.05);
-        CHECK(l == doctest::Approx(m).epsilon(0.02));
-        CHECK(b == doctest::Approx(m).epsilon(0.03));
+        CHECK(l == test::Approx(m).epsilon(0.02));
+        CHECK(b == test::Approx(m).epsilon(0.03));
     }
     // Quadrant means agree too (catches errors that cancel over the whole image).
     for (int q = 0; q < 4; ++q) {
@@ -145,7 +146,7 @@ TEST_CASE("MIS consistency: light-only, BSDF-only and MIS estimates agree") {
                 sm += mis.at(px, py, 1);
                 sl += light.at(px, py, 1);
             }
-        CHECK(sl == doctest::Approx(sm).epsilon(0.04));
+        CHECK(sl == test::Approx(sm).epsilon(0.04));
     }
 }
 
@@ -180,7 +181,7 @@ TEST_CASE("scale invariance: the scene scaled by 1e-4 and 1e5 renders the same p
         sampling::RgbImage img = render_image(*sc);
         INFO("scale " << k);
         for (int c = 0; c < 3; ++c)
-            CHECK(image_mean(img, c) == doctest::Approx(image_mean(ref, c)).epsilon(0.01));
+            CHECK(image_mean(img, c) == test::Approx(image_mean(ref, c)).epsilon(0.01));
         // Same sample sequence and the same geometry up to rounding: pixels agree closely.
         double mse = sampling::mse(img, ref).total;
         CHECK(mse < 1e-3);

@@ -4,6 +4,7 @@
 // visible emitter, and the camera must not see it.
 #include <doctest/doctest.h>
 
+#include "approx.h"
 #include "render_test_util.h"
 
 using namespace tessera;
@@ -51,7 +52,7 @@ TEST_CASE("render: a triangle emitter with alpha 0 lights the floor as the visib
     double invisible = mean_luminance(floor_scene(std::string(kQuad) + "\"float alpha\" [ 0 ]"));
     INFO("visible " << visible << ", invisible " << invisible);
     CHECK(visible > 0.05);
-    CHECK(invisible == doctest::Approx(visible).epsilon(0.03));
+    CHECK(invisible == test::Approx(visible).epsilon(0.03));
 }
 
 TEST_CASE("render: a sphere emitter with alpha 0 lights the floor as the visible one does") {
@@ -59,7 +60,7 @@ TEST_CASE("render: a sphere emitter with alpha 0 lights the floor as the visible
     double invisible = mean_luminance(floor_scene(std::string(kSphere) + "\"float alpha\" [ 0 ]"));
     INFO("visible " << visible << ", invisible " << invisible);
     CHECK(visible > 0.05);
-    CHECK(invisible == doctest::Approx(visible).epsilon(0.03));
+    CHECK(invisible == test::Approx(visible).epsilon(0.03));
 }
 
 TEST_CASE("render: the camera does not see an emitter with alpha 0, and it casts no shadow") {
@@ -75,8 +76,8 @@ WorldBegin
 Shape "trianglemesh" "point3 P" [ -2 -2 0  2 -2 0  2 2 0  -2 2 0 ] "integer indices" [ 0 1 2  0 2 3 ] )";
     const std::string sphere = R"(AreaLightSource "diffuse" "rgb L" [ 3 3 3 ]
 Shape "sphere" "float radius" [ 2 ] )";
-    CHECK(mean_luminance(head + quad) == doctest::Approx(2.0).epsilon(1e-3));
+    CHECK(mean_luminance(head + quad) == test::Approx(2.0).epsilon(1e-3));
     CHECK(mean_luminance(head + quad + "\"float alpha\" [ 0 ]") == 0.0);
-    CHECK(mean_luminance(head + sphere) == doctest::Approx(3.0).epsilon(1e-3));
+    CHECK(mean_luminance(head + sphere) == test::Approx(3.0).epsilon(1e-3));
     CHECK(mean_luminance(head + sphere + "\"float alpha\" [ 0 ]") == 0.0);
 }

@@ -5,6 +5,7 @@
 
 #include <cmath>
 
+#include "approx.h"
 #include "renderer/lens_system.h"
 #include "renderer/scene_desc.h"
 #include "test_helpers.h"
@@ -44,11 +45,11 @@ double axis_crossing_z(Vec3f o, Vec3f d) {
 TEST_CASE("lens system: the thick-lens focal length of a singlet matches the lensmaker's equation") {
     LensSystem lens = singlet(4.f, 2.f);
     const double f = singlet_focal_length();  // 50.34 mm
-    CHECK(lens.focal_length() == doctest::Approx(f).epsilon(0.002).scale(0));
+    CHECK(lens.focal_length() == test::Approx(f).epsilon(0.002).scale(0));
     // Thin-lens estimate of the film distance for an object 2 m away: 1/f = 1/s + 1/s'.
     // The film sits a little beyond f, 1 mm behind the stop plane (rear_z is stop to film).
     const double s_image = 1.0 / (1.0 / f - 1.0 / 2.0);
-    CHECK(lens.rear_z() + 0.001 + 0.001 == doctest::Approx(s_image).epsilon(0.03).scale(0));
+    CHECK(lens.rear_z() + 0.001 + 0.001 == test::Approx(s_image).epsilon(0.03).scale(0));
 }
 
 TEST_CASE("lens system: focusing at infinity puts the film at the back focal point") {
@@ -62,7 +63,7 @@ TEST_CASE("lens system: focusing at infinity puts the film at the back focal poi
         prev = lens.rear_z();
     }
     LensSystem far = singlet(4.f, 1e6f), farther = singlet(4.f, 3e38f);
-    CHECK(farther.rear_z() == doctest::Approx(far.rear_z()).epsilon(1e-6).scale(0));
+    CHECK(farther.rear_z() == test::Approx(far.rear_z()).epsilon(1e-6).scale(0));
     // A paraxial ray parallel to the axis from the scene lands on the axis at the film.
     // (Equivalently: rays from one film point leave parallel; checked at the centre.)
     Vec3f o, d;
@@ -93,8 +94,8 @@ TEST_CASE("lens system: rays from the film centre meet on the axis at the focus 
                 z_max = std::max(z_max, z);
             }
         REQUIRE(traced > 20);
-        CHECK(z_min == doctest::Approx(focus).epsilon(0.01).scale(0));
-        CHECK(z_max == doctest::Approx(focus).epsilon(0.01).scale(0));
+        CHECK(z_min == test::Approx(focus).epsilon(0.01).scale(0));
+        CHECK(z_max == test::Approx(focus).epsilon(0.01).scale(0));
     }
 }
 
@@ -113,7 +114,7 @@ TEST_CASE("lens system: the centre pixel's mean weight is the stop's projected s
                 Vec3f o, d;
                 sum += lens.generate_ray({32.f, 32.f}, {(i + 0.5f) / n, (j + 0.5f) / n}, &o, &d);
             }
-        CHECK(sum / (n * n) == doctest::Approx(expected).epsilon(0.01).scale(0));
+        CHECK(sum / (n * n) == test::Approx(expected).epsilon(0.01).scale(0));
     }
 }
 
@@ -129,8 +130,8 @@ TEST_CASE("lens system: the image is inverted onto the film; raster up-left look
     CHECK(d.y < 0.f);
     // The film's aspect follows the resolution, its diagonal is the given one.
     Vec2f e = lens.film_extent();
-    CHECK(e.x / e.y == doctest::Approx(64.0 / 48.0));
-    CHECK(std::hypot(e.x, e.y) == doctest::Approx(0.035).epsilon(1e-5).scale(0));
+    CHECK(e.x / e.y == test::Approx(64.0 / 48.0));
+    CHECK(std::hypot(e.x, e.y) == test::Approx(0.035).epsilon(1e-5).scale(0));
 }
 
 TEST_CASE("lens system: an aperture wider than the stop is clamped with a warning") {
@@ -138,7 +139,7 @@ TEST_CASE("lens system: an aperture wider than the stop is clamped with a warnin
     LensSystem lens = singlet(30.f, 3.f, 0.035f, 64, 64, {}, &warnings);
     REQUIRE(warnings.size() == 1);
     CHECK(warnings[0].find("clamped") != std::string::npos);
-    CHECK(lens.elements().back().aperture_radius == doctest::Approx(0.005).epsilon(1e-5).scale(0));
+    CHECK(lens.elements().back().aperture_radius == test::Approx(0.005).epsilon(1e-5).scale(0));
 }
 
 TEST_CASE("lens system: a focus distance inside the focal length cannot be focused") {
@@ -164,7 +165,7 @@ TEST_CASE("aperture images: pbrt's built-in shapes pass as much light as the rou
         double sum = 0;
         for (int i = 0; i < n; ++i)
             for (int j = 0; j < n; ++j) sum += img.bilerp((i + 0.5) / n, (j + 0.5) / n);
-        CHECK(sum / (n * n) == doctest::Approx(M_PI / 4).epsilon(0.01).scale(0));
+        CHECK(sum / (n * n) == test::Approx(M_PI / 4).epsilon(0.01).scale(0));
         CHECK(img.bilerp(0.01, 0.01) == 0.f);  // the corners are closed
         CHECK(img.bilerp(1.5, 0.5) == 0.f);    // black outside
     }
@@ -185,9 +186,9 @@ TEST_CASE("lens files: numbers, comments, and errors with the file's line") {
                                  "0\t4.5\t0\t17.1\n\n-39.73 5 1 20\n");
     std::vector<float> v = read_lens_file(path);
     REQUIRE(v.size() == 12);
-    CHECK(v[0] == doctest::Approx(29.475));
-    CHECK(v[7] == doctest::Approx(17.1));
-    CHECK(v[11] == doctest::Approx(20));
+    CHECK(v[0] == test::Approx(29.475));
+    CHECK(v[7] == test::Approx(17.1));
+    CHECK(v[11] == test::Approx(20));
 
     // Text that is not a number is skipped with a warning, as pbrt-v4's ReadFloatFile does
     // (an uncommented header line still loads).
@@ -238,7 +239,7 @@ TEST_CASE("lens system: an aperture image passes the round stop's light at every
                     a += round.generate_ray(film, u, &o, &d);
                     b += shaped.generate_ray(film, u, &o, &d);
                 }
-            CHECK(b == doctest::Approx(a).epsilon(0.01).scale(0));
+            CHECK(b == test::Approx(a).epsilon(0.01).scale(0));
         }
     }
 }

@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "approx.h"
 #include "renderer/light_sampler.h"
 #include "renderer/lights.h"
 #include "sampling/distribution.h"
@@ -80,16 +81,16 @@ TEST_CASE("point light: irradiance I cos / d^2, from + transform, power") {
     const float d2 = 9.f + 16.f;
     CHECK(near(s->wi, Vec3f(0, -3, 4) / 5.f));
     float cos_t = dot(ctx.n, s->wi);
-    CHECK(s->L.r * cos_t == doctest::Approx(2.f * 0.8f / d2));
-    CHECK(s->L.b * cos_t == doctest::Approx(4.f * 0.8f / d2));
+    CHECK(s->L.r * cos_t == test::Approx(2.f * 0.8f / d2));
+    CHECK(s->L.b * cos_t == test::Approx(4.f * 0.8f / d2));
     CHECK(light->pdf_li(ctx, s->wi, s->p_light, {}) == 0.f);
-    CHECK(light->phi().g == doctest::Approx(4.f * kPi * 3.f));
+    CHECK(light->phi().g == test::Approx(4.f * kPi * 3.f));
 
     // "power" normalises the spectrum, keeping the RGB ratios (pbrt-v4), then "scale".
     auto p = make_light(light_desc(
         "point", {num_param("float", "power", {100}), num_param("float", "scale", {2})}));
-    CHECK(p->phi().r == doctest::Approx(200.f));
-    CHECK(p->phi().b == doctest::Approx(200.f));
+    CHECK(p->phi().r == test::Approx(200.f));
+    CHECK(p->phi().b == test::Approx(200.f));
 }
 
 TEST_CASE("spot light: smoothstep falloff between the cone edges, pbrt-v4 defaults") {
@@ -105,14 +106,14 @@ TEST_CASE("spot light: smoothstep falloff between the cone edges, pbrt-v4 defaul
     CHECK(spot->shape() == LightShape::Spot);
     CHECK(make_light(light_desc("point", {}))->shape() == LightShape::Point);
     CHECK(make_light(light_desc("distant", {}))->shape() == LightShape::Other);
-    CHECK(at_angle(0.f) == doctest::Approx(3.f));
-    CHECK(at_angle(24.9f) == doctest::Approx(3.f));
+    CHECK(at_angle(0.f) == test::Approx(3.f));
+    CHECK(at_angle(24.9f) == test::Approx(3.f));
     CHECK(at_angle(30.1f) == 0.f);
     CHECK(at_angle(90.f) == 0.f);
     // Inside the falloff band: smoothstep of cos theta between cos 30 and cos 25.
     float c = std::cos(radians(27.5f)), c0 = std::cos(radians(30.f)), c1 = std::cos(radians(25.f));
     float t = (c - c0) / (c1 - c0);
-    CHECK(at_angle(27.5f) == doctest::Approx(3.f * t * t * (3 - 2 * t)).epsilon(1e-4));
+    CHECK(at_angle(27.5f) == test::Approx(3.f * t * t * (3 - 2 * t)).epsilon(1e-4));
     float mid = at_angle(27.5f);
     CHECK(mid > 0.f);
     CHECK(mid < 3.f);
@@ -123,7 +124,7 @@ TEST_CASE("spot light: smoothstep falloff between the cone edges, pbrt-v4 defaul
                    {num_param("float", "power", {50}), num_param("point3", "from", {0, 0, 0}),
                     num_param("point3", "to", {1, 0, 0}), num_param("float", "coneangle", {20})},
                    Transform::translate({0, 2, 0})));
-    CHECK(aimed->phi().g == doctest::Approx(50.f).epsilon(1e-4));
+    CHECK(aimed->phi().g == test::Approx(50.f).epsilon(1e-4));
     auto on_axis = aimed->sample_li({{5, 2, 0}, {}}, {});
     REQUIRE(on_axis);
     CHECK(near(on_axis->p_light, {0, 2, 0}));
@@ -161,7 +162,7 @@ TEST_CASE("spot light: the falloff cosine is the light-space one, similarity or 
             float want = reference(*tr, p);
             auto s = spot->sample_li({p, {}}, {0.5f, 0.5f});
             float got = s ? s->L.r : 0.f;
-            CHECK(got == doctest::Approx(want).epsilon(1e-4).scale(1e-6));
+            CHECK(got == test::Approx(want).epsilon(1e-4).scale(1e-6));
             const Vec3f apex = tr->point({0, 0, 0});
             const float d2 = length_squared(p - apex);
             if (tr == &sheared && want > 0.f && want < 2.f / d2) {
@@ -186,14 +187,14 @@ TEST_CASE("distant light: arrives from from - to; illuminance; p_light beyond th
     auto s = sun->sample_li({{1, 1, 1}, {0, 0, -1}}, {});
     REQUIRE(s);
     CHECK(near(s->wi, {0, 0, -1}));  // light travels +z, so it comes from -z
-    CHECK(s->L.b == doctest::Approx(3.f));
+    CHECK(s->L.b == test::Approx(3.f));
     CHECK(near(s->p_light, {1, 1, -19}));
-    CHECK(sun->phi().r == doctest::Approx(kPi * 100.f));
+    CHECK(sun->phi().r == test::Approx(kPi * 100.f));
 
     auto lux = make_light(light_desc("distant", {num_param("float", "illuminance", {7})}));
     auto s2 = lux->sample_li({{0, 0, 0}, {}}, {});
     REQUIRE(s2);
-    CHECK(s2->L.g == doctest::Approx(7.f));
+    CHECK(s2->L.g == test::Approx(7.f));
 }
 
 TEST_CASE("sphere light: Monte Carlo irradiance matches pi L (r/d)^2") {
@@ -203,12 +204,12 @@ TEST_CASE("sphere light: Monte Carlo irradiance matches pi L (r/d)^2") {
     SphereLight light({0, 0, d}, r, Rgb(L));
     LightSampleContext ctx{{0, 0, 0}, {0, 0, 1}};
     double e = mc_irradiance(light, ctx, 128);
-    CHECK(e == doctest::Approx(kPi * L * (r / d) * (r / d)).epsilon(2e-3));
+    CHECK(e == test::Approx(kPi * L * (r / d) * (r / d)).epsilon(2e-3));
     // Large, close sphere (no small-angle branch): d = 1.5 r.
     SphereLight big({0, 0, 0.9f}, 0.6f, Rgb(L));
     e = mc_irradiance(big, ctx, 256);
-    CHECK(e == doctest::Approx(kPi * L * (0.6 / 0.9) * (0.6 / 0.9)).epsilon(2e-3));
-    CHECK(light.phi().r == doctest::Approx(L * kPi * 4.f * kPi * r * r));
+    CHECK(e == test::Approx(kPi * L * (0.6 / 0.9) * (0.6 / 0.9)).epsilon(2e-3));
+    CHECK(light.phi().r == test::Approx(L * kPi * 4.f * kPi * r * r));
 }
 
 TEST_CASE("disk light: on-axis irradiance pi L r^2 / (r^2 + d^2)") {
@@ -216,7 +217,7 @@ TEST_CASE("disk light: on-axis irradiance pi L r^2 / (r^2 + d^2)") {
     DiskLight disk({0, 0, d}, {0, 0, -1}, r, Rgb(L));
     LightSampleContext ctx{{0, 0, 0}, {0, 0, 1}};
     double e = mc_irradiance(disk, ctx, 256);
-    CHECK(e == doctest::Approx(kPi * L * r * r / (r * r + d * d)).epsilon(3e-3));
+    CHECK(e == test::Approx(kPi * L * r * r / (r * r + d * d)).epsilon(3e-3));
     // The receiver behind a one-sided disk gets nothing.
     CHECK(mc_irradiance(disk, {{0, 0, 3}, {0, 0, -1}}, 8) == 0.0);
 }
@@ -225,27 +226,27 @@ TEST_CASE("triangle light: one-sided and two-sided emission") {
     Vec3f p0{0, 0, 1}, p1{1, 0, 1}, p2{0, 1, 1};
     TriangleLight one(p0, p1, p2, {0, 0, -1}, Rgb(5.f), false);
     TriangleLight two(p0, p1, p2, {0, 0, -1}, Rgb(5.f), true);
-    CHECK(one.area() == doctest::Approx(0.5f));
+    CHECK(one.area() == test::Approx(0.5f));
     CHECK(one.L(p0, {0, 0, -1}, {}, {0, 0, -1}).r == 5.f);
     CHECK(one.L(p0, {0, 0, -1}, {}, {0, 0, 1}).r == 0.f);
     CHECK(two.L(p0, {0, 0, -1}, {}, {0, 0, 1}).r == 5.f);
-    CHECK(one.phi().r == doctest::Approx(5.f * kPi * 0.5f));
-    CHECK(two.phi().r == doctest::Approx(2.f * 5.f * kPi * 0.5f));
+    CHECK(one.phi().r == test::Approx(5.f * kPi * 0.5f));
+    CHECK(two.phi().r == test::Approx(2.f * 5.f * kPi * 0.5f));
 
     LightSampleContext below{{0.2f, 0.2f, 0}, {0, 0, 1}}, above{{0.2f, 0.2f, 2}, {0, 0, -1}};
     auto s = one.sample_li(below, {0.3f, 0.6f});
     REQUIRE(s);
     CHECK(s->L.r == 5.f);
-    CHECK(s->p_light.z == doctest::Approx(1.f));
+    CHECK(s->p_light.z == test::Approx(1.f));
     // Solid-angle pdf = d^2 / (cos * area).
     float d2 = length_squared(s->p_light - below.p);
-    CHECK(s->pdf == doctest::Approx(d2 / (std::abs(s->wi.z) * 0.5f)));
-    CHECK(one.pdf_li(below, s->wi, s->p_light, s->n_light) == doctest::Approx(s->pdf));
+    CHECK(s->pdf == test::Approx(d2 / (std::abs(s->wi.z) * 0.5f)));
+    CHECK(one.pdf_li(below, s->wi, s->p_light, s->n_light) == test::Approx(s->pdf));
     CHECK_FALSE(one.sample_li(above, {0.3f, 0.6f}));
     auto s2 = two.sample_li(above, {0.3f, 0.6f});
     REQUIRE(s2);
     CHECK(s2->L.r == 5.f);
-    CHECK(s2->n_light.z == doctest::Approx(1.f));  // the side facing the receiver
+    CHECK(s2->n_light.z == test::Approx(1.f));  // the side facing the receiver
 }
 
 TEST_CASE("sphere light: reverse orientation emits inward") {
@@ -255,10 +256,10 @@ TEST_CASE("sphere light: reverse orientation emits inward") {
     CHECK_FALSE(outward.sample_li(inside, {0.2f, 0.4f}));
     auto s = inward.sample_li(inside, {0.2f, 0.4f});
     REQUIRE(s);
-    CHECK(length(s->p_light) == doctest::Approx(2.f));
+    CHECK(length(s->p_light) == test::Approx(2.f));
     // Inside a uniformly emitting sphere the irradiance on any plane is pi L.
     CHECK(mc_irradiance(inward, {{0.3f, 0.5f, -0.2f}, normalize(Vec3f(1, 2, 3))}, 256) ==
-          doctest::Approx(kPi).epsilon(5e-3));
+          test::Approx(kPi).epsilon(5e-3));
 }
 
 TEST_CASE("equal-area octahedral map: round trips and landmarks") {
@@ -309,9 +310,9 @@ TEST_CASE("image infinite light: +z is the centre of an equal-area map; transfor
     auto light = make_light(
         light_desc("infinite", {str_param("filename", path)}, Transform::rotate(-90, {1, 0, 0})));
     REQUIRE(light->type() == LightType::Infinite);
-    CHECK(light->Le({0, 1, 0}).r == doctest::Approx(50.f));
-    CHECK(light->Le({-1, 0, 0}).r == doctest::Approx(7.f));
-    CHECK(light->Le({0, -1, 0}).r == doctest::Approx(0.1f));
+    CHECK(light->Le({0, 1, 0}).r == test::Approx(50.f));
+    CHECK(light->Le({-1, 0, 0}).r == test::Approx(7.f));
+    CHECK(light->Le({0, -1, 0}).r == test::Approx(0.1f));
     // Most light samples go to the bright pixel (50 of the map's total weight ~62.
     int toward_up = 0;
     for (int i = 0; i < 100; ++i) {
@@ -325,23 +326,23 @@ TEST_CASE("image infinite light: +z is the centre of an equal-area map; transfor
     // "scale" multiplies; "illuminance" rescales.
     auto scaled = make_light(
         light_desc("infinite", {str_param("filename", path), num_param("float", "scale", {2})}));
-    CHECK(scaled->Le({0, 0, 1}).r == doctest::Approx(100.f));
+    CHECK(scaled->Le({0, 0, 1}).r == test::Approx(100.f));
 }
 
 TEST_CASE("uniform infinite light: L, default, illuminance, phi from the scene radius") {
     auto sky = make_light(light_desc("infinite", {num_param("rgb", "L", {0.5, 1, 2})}));
-    CHECK(sky->Le({0.3f, 0.1f, -0.9f}).b == doctest::Approx(2.f));
+    CHECK(sky->Le({0.3f, 0.1f, -0.9f}).b == test::Approx(2.f));
     sky->preprocess({0, 0, 0}, 10.f);
-    CHECK(sky->phi().g == doctest::Approx(4.f * kPi * kPi * 100.f));
+    CHECK(sky->phi().g == test::Approx(4.f * kPi * kPi * 100.f));
     auto s = sky->sample_li({{0, 0, 0}, {0, 0, 1}}, {0.2f, 0.9f});
     REQUIRE(s);
-    CHECK(s->pdf == doctest::Approx(kInv4Pi));
-    CHECK(length(s->p_light) == doctest::Approx(20.f));
+    CHECK(s->pdf == test::Approx(kInv4Pi));
+    CHECK(length(s->p_light) == test::Approx(20.f));
     auto def = make_light(light_desc("infinite", {}));
-    CHECK(def->Le({0, 0, 1}).r == doctest::Approx(1.f));
+    CHECK(def->Le({0, 0, 1}).r == test::Approx(1.f));
     // Illuminance E on an upward patch from a uniform sky of radiance L is pi L.
     auto lux = make_light(light_desc("infinite", {num_param("float", "illuminance", {10})}));
-    CHECK(lux->Le({0, 0, 1}).r == doctest::Approx(10.f / kPi));
+    CHECK(lux->Le({0, 0, 1}).r == test::Approx(10.f / kPi));
 }
 
 TEST_CASE("make_light: unsupported and unknown types, conflicting parameters") {
@@ -376,8 +377,8 @@ TEST_CASE("make_area_emission: defaults, scale, power per shape, twosided") {
     ParamSet ps;
     ps.params = {num_param("rgb", "L", {17, 12, 4}), num_param("float", "scale", {0.5})};
     e = make_area_emission(ps, {"a.pbrt", 3}, 2.f);
-    CHECK(e.L.r == doctest::Approx(8.5f));
-    CHECK(e.L.b == doctest::Approx(2.f));
+    CHECK(e.L.r == test::Approx(8.5f));
+    CHECK(e.L.b == test::Approx(2.f));
 
     // power: phi = L * pi * area * (twosided ? 2 : 1) equals the requested power.
     ParamSet pw;
@@ -389,7 +390,7 @@ TEST_CASE("make_area_emission: defaults, scale, power per shape, twosided") {
     pw.params = {num_param("float", "power", {10}), ts};
     e = make_area_emission(pw, {"a.pbrt", 3}, 2.f);
     CHECK(e.twosided);
-    CHECK(e.L.g * kPi * 2.f * 2.f == doctest::Approx(10.f));
+    CHECK(e.L.g * kPi * 2.f * 2.f == test::Approx(10.f));
 
     ParamSet img;
     img.params = {str_param("filename", "emit.png")};
@@ -416,17 +417,17 @@ TEST_CASE("PowerLightSampler: pmf proportional to power, sums to 1, O(1) lookup"
     for (const Light *l : local) sum_local += l->phi().luminance();
     for (const Light *l : local)
         CHECK(local_sampler.pmf(l) ==
-              doctest::Approx(l->phi().luminance() / sum_local).epsilon(1e-5));
+              test::Approx(l->phi().luminance() / sum_local).epsilon(1e-5));
 
     // With a sky too: the sky (the infinite-extent group) gets 1/2, the local lights share
     // the other half by power.
     double total = 0;
-    CHECK(sampler.pmf(&sky) == doctest::Approx(0.5).epsilon(1e-6));
+    CHECK(sampler.pmf(&sky) == test::Approx(0.5).epsilon(1e-6));
     for (const Light *l : local)
         CHECK(sampler.pmf(l) ==
-              doctest::Approx(0.5 * l->phi().luminance() / sum_local).epsilon(1e-5));
+              test::Approx(0.5 * l->phi().luminance() / sum_local).epsilon(1e-5));
     for (const Light *l : lights) total += sampler.pmf(l);
-    CHECK(total == doctest::Approx(1.0).epsilon(1e-6));
+    CHECK(total == test::Approx(1.0).epsilon(1e-6));
     PointLight stranger({1, 1, 1}, Rgb(1.f));
     CHECK(sampler.pmf(&stranger) == 0.f);
 
@@ -448,8 +449,8 @@ TEST_CASE("PowerLightSampler: pmf proportional to power, sums to 1, O(1) lookup"
     PointLight dark1({0, 0, 0}, Rgb(0.f)), dark2({1, 0, 0}, Rgb(0.f));
     std::vector<const Light *> dark = {&dark1, &dark2};
     PowerLightSampler uniform(dark);
-    CHECK(uniform.pmf(&dark1) == doctest::Approx(0.5f));
-    CHECK(uniform.pmf(&dark2) == doctest::Approx(0.5f));
+    CHECK(uniform.pmf(&dark1) == test::Approx(0.5f));
+    CHECK(uniform.pmf(&dark2) == test::Approx(0.5f));
     PowerLightSampler empty(std::span<const Light *const>{});
     CHECK_FALSE(empty.sample(0.5f));
 }

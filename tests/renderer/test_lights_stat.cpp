@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "approx.h"
 #include "chi2.h"
 #include "renderer/lights.h"
 
@@ -156,7 +157,7 @@ void check_light(const std::string &name, const Light &light, const LightSampleC
     opt.seed = seed;
     auto r = tessera::test::chi2_sphere(name, sampler, pdf, opt);
     CHECK_MESSAGE(r.passed, r.message);
-    CHECK_MESSAGE(r.pdf_integral == doctest::Approx(1.0).epsilon(5e-3), r.message);
+    CHECK_MESSAGE(r.pdf_integral == test::Approx(1.0).epsilon(5e-3), r.message);
 
     tessera::test::Chi2Rng rng(seed + 1000);
     int mismatched = 0, off_surface = 0;
@@ -302,10 +303,10 @@ TEST_CASE("cylinder, partial sphere and annulus lights: area sampling (chi-squar
         "annulus_light", disk_light, {xf.point({0.2f, 0.1f, 1.5f}), {}},
         [&](Vec3f o, Vec3f w) { return hit_quadric(o, w, xf, disk); }, 42, options(42));
     // Areas: 1.5^2 times phi_max r (zmax - zmin), and phi_max / 2 (ro^2 - ri^2).
-    CHECK(cyl_light.area() == doctest::Approx(2.25 * radians(300) * 0.8 * 1.7).epsilon(1e-5));
-    CHECK(sph_light.area() == doctest::Approx(2.25 * radians(250) * 1.0 * 1.4).epsilon(1e-5));
+    CHECK(cyl_light.area() == test::Approx(2.25 * radians(300) * 0.8 * 1.7).epsilon(1e-5));
+    CHECK(sph_light.area() == test::Approx(2.25 * radians(250) * 1.0 * 1.4).epsilon(1e-5));
     CHECK(disk_light.area() ==
-          doctest::Approx(2.25 * 0.5 * radians(200) * (1.44 - 0.16)).epsilon(1e-5));
+          test::Approx(2.25 * 0.5 * radians(200) * (1.44 - 0.16)).epsilon(1e-5));
 }
 
 TEST_CASE("uniform infinite light (chi-square)") {

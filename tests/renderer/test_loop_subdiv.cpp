@@ -3,6 +3,7 @@
 
 #include <cmath>
 
+#include "approx.h"
 #include "render_test_util.h"
 #include "renderer/loop_subdiv.h"
 
@@ -34,7 +35,7 @@ TEST_CASE("loop subdivision of a closed octahedron: counts, a smooth convex limi
             double r = length(m.p[v]);
             rmin = std::min(rmin, r);
             rmax = std::max(rmax, r);
-            CHECK(length(m.n[v]) == doctest::Approx(1.0).epsilon(1e-5));
+            CHECK(length(m.n[v]) == test::Approx(1.0).epsilon(1e-5));
             CHECK(dot(m.n[v], m.p[v]) > 0.f);  // outward, like the input triangles
         }
         if (levels > 0) {
@@ -46,7 +47,7 @@ TEST_CASE("loop subdivision of a closed octahedron: counts, a smooth convex limi
     // Every vertex of the regular octahedron has the same limit position radius by symmetry:
     // the six original vertices move to the same distance from the centre.
     SubdividedMesh m = loop_subdivide(p, idx, 2);
-    for (int v = 1; v < 6; ++v) CHECK(length(m.p[size_t(v)]) == doctest::Approx(length(m.p[0])));
+    for (int v = 1; v < 6; ++v) CHECK(length(m.p[size_t(v)]) == test::Approx(length(m.p[0])));
 }
 
 TEST_CASE("loop subdivision keeps a flat open patch flat (boundary rules)") {
@@ -55,8 +56,8 @@ TEST_CASE("loop subdivision keeps a flat open patch flat (boundary rules)") {
     SubdividedMesh m = loop_subdivide(p, idx, 3);
     CHECK(m.indices.size() == 3 * 2 * 64);
     for (size_t v = 0; v < m.p.size(); ++v) {
-        CHECK(m.p[v].z == doctest::Approx(0.0));
-        CHECK(m.n[v].z == doctest::Approx(1.0));
+        CHECK(m.p[v].z == test::Approx(0.0));
+        CHECK(m.n[v].z == test::Approx(1.0));
         CHECK(m.p[v].x >= -1e-6f);
         CHECK(m.p[v].x <= 1.f + 1e-6f);
     }
@@ -80,5 +81,5 @@ Shape "loopsubdiv" "integer levels" [ 2 ]
     auto sc = test::scene_from_string(scene);
     CHECK(warning_count() == before);  // "levels" is used, nothing is ignored
     // A convex white object under a white sky is a white furnace: 1 everywhere.
-    CHECK(test::image_mean(test::render_image(*sc), 1) == doctest::Approx(1.0).epsilon(0.01));
+    CHECK(test::image_mean(test::render_image(*sc), 1) == test::Approx(1.0).epsilon(0.01));
 }

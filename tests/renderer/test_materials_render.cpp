@@ -4,6 +4,7 @@
 
 #include <sstream>
 
+#include "approx.h"
 #include "render_test_util.h"
 #include "renderer/scene_desc.h"
 #include "test_helpers.h"
@@ -38,7 +39,7 @@ TEST_CASE("thindielectric: a pane transmits 1 - R' with R' = R + T^2 R / (1 - R^
     double R = 0.04, T = 0.96;  // normal incidence, eta 1.5 (the fov is narrow)
     double Rp = R + T * T * R / (1 - R * R);
     double g = image_mean(render_image(*sc), 1);
-    CHECK(g == doctest::Approx(1 - Rp).epsilon(0.01));
+    CHECK(g == test::Approx(1 - Rp).epsilon(0.01));
     // A refracting dielectric slab of one surface would instead scale radiance by eta^2 inside.
 }
 
@@ -64,7 +65,7 @@ TEST_CASE("diffusetransmission keeps pbrt-v4's reflectance default 0.25") {
         "Material \"diffusetransmission\"\nShape \"sphere\" \"float radius\" [ 1 ]\n";
     auto sc = scene_from_string(s);
     // Albedo 0.25 under a white environment, one bounce: 0.25 everywhere on the sphere.
-    CHECK(image_mean(render_image(*sc), 0) == doctest::Approx(0.25).epsilon(0.01));
+    CHECK(image_mean(render_image(*sc), 0) == test::Approx(0.25).epsilon(0.01));
     // "scale" multiplies a given reflectance too, then clamps to 1 (pbrt-v4):
     // 0.2 x 2 = 0.4 in red, 0.8 x 2 = 1.6 -> 1 in blue.
     auto scaled = [&](const std::string &params) {
@@ -73,10 +74,10 @@ TEST_CASE("diffusetransmission keeps pbrt-v4's reflectance default 0.25") {
         return render_image(*scene_from_string(t));
     };
     sampling::RgbImage img = scaled("\"rgb reflectance\" [ 0.2 0.4 0.8 ] \"float scale\" [ 2 ]");
-    CHECK(image_mean(img, 0) == doctest::Approx(0.4).epsilon(0.01));
-    CHECK(image_mean(img, 1) == doctest::Approx(0.8).epsilon(0.01));
-    CHECK(image_mean(img, 2) == doctest::Approx(1.0).epsilon(0.01));
-    CHECK(image_mean(scaled("\"float scale\" [ 0.5 ]"), 0) == doctest::Approx(0.125).epsilon(0.01));
+    CHECK(image_mean(img, 0) == test::Approx(0.4).epsilon(0.01));
+    CHECK(image_mean(img, 1) == test::Approx(0.8).epsilon(0.01));
+    CHECK(image_mean(img, 2) == test::Approx(1.0).epsilon(0.01));
+    CHECK(image_mean(scaled("\"float scale\" [ 0.5 ]"), 0) == test::Approx(0.125).epsilon(0.01));
 }
 
 TEST_CASE("bump mapping: a displacement ramp tilts the shading normal by atan(slope)") {
@@ -97,10 +98,10 @@ TEST_CASE("bump mapping: a displacement ramp tilts the shading normal by atan(sl
                "  \"point2 uv\" [ 0 0  1 0  1 1  0 1 ] \"integer indices\" [ 0 1 2  0 2 3 ]\n";
     };
     auto flat = scene_from_string(make("Material \"diffuse\" \"rgb reflectance\" [ 1 1 1 ]"));
-    CHECK(image_mean(render_image(*flat), 1) == doctest::Approx(1.0).epsilon(0.002));
+    CHECK(image_mean(render_image(*flat), 1) == test::Approx(1.0).epsilon(0.002));
     auto bumped = scene_from_string(make("Material \"diffuse\" \"rgb reflectance\" [ 1 1 1 ] "
                                          "\"texture displacement\" \"ramp\""));
-    CHECK(image_mean(render_image(*bumped), 1) == doctest::Approx(std::sqrt(0.5)).epsilon(0.01));
+    CHECK(image_mean(render_image(*bumped), 1) == test::Approx(std::sqrt(0.5)).epsilon(0.01));
 }
 
 TEST_CASE("normal map: a constant tangent-space normal tilted by 45 degrees") {
@@ -129,6 +130,6 @@ TEST_CASE("normal map: a constant tangent-space normal tilted by 45 degrees") {
         "\"\nShape \"trianglemesh\" \"point3 P\" [ -1 -1 0  1 -1 0  1 1 0  -1 1 0 ]\n"
         "  \"point2 uv\" [ 0 0  1 0  1 1  0 1 ] \"integer indices\" [ 0 1 2  0 2 3 ]\n";
     auto sc = scene_from_string(scene);
-    CHECK(image_mean(render_image(*sc), 1) == doctest::Approx(std::sqrt(0.5)).epsilon(0.01));
+    CHECK(image_mean(render_image(*sc), 1) == test::Approx(std::sqrt(0.5)).epsilon(0.01));
     std::remove(file.c_str());
 }

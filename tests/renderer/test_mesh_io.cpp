@@ -5,6 +5,7 @@
 #include <filesystem>
 #include <fstream>
 
+#include "approx.h"
 #include "gzip_test_util.h"
 #include "renderer/mesh_io.h"
 #include "renderer/scene_desc.h"
@@ -171,9 +172,9 @@ TEST_CASE("load_ply: Stanford bunny (binary) and bunny_lowres (ASCII, extra prop
     CHECK(big.n.empty());
     CHECK(big.uv.empty());
     // First vertex of the file.
-    CHECK(big.p[0].x == doctest::Approx(-0.0378297).epsilon(1e-6));
-    CHECK(big.p[0].y == doctest::Approx(0.12794).epsilon(1e-6));
-    CHECK(big.p[0].z == doctest::Approx(0.00447467).epsilon(1e-6));
+    CHECK(big.p[0].x == test::Approx(-0.0378297).epsilon(1e-6));
+    CHECK(big.p[0].y == test::Approx(0.12794).epsilon(1e-6));
+    CHECK(big.p[0].z == test::Approx(0.00447467).epsilon(1e-6));
     // First face of the file.
     CHECK(big.indices[0] == 21216);
     CHECK(big.indices[1] == 21215);
@@ -185,9 +186,9 @@ TEST_CASE("load_ply: Stanford bunny (binary) and bunny_lowres (ASCII, extra prop
     MeshData low = load_ply(shared + "/scenes/stanford-bunny/bunny_lowres.ply");
     CHECK(low.p.size() == 453);
     CHECK(low.triangle_count() == 948);
-    CHECK(low.p[0].x == doctest::Approx(-0.0312216).epsilon(1e-6));
-    CHECK(low.p[0].y == doctest::Approx(0.126304).epsilon(1e-6));
-    CHECK(low.p[0].z == doctest::Approx(0.00514924).epsilon(1e-6));
+    CHECK(low.p[0].x == test::Approx(-0.0312216).epsilon(1e-6));
+    CHECK(low.p[0].y == test::Approx(0.126304).epsilon(1e-6));
+    CHECK(low.p[0].z == test::Approx(0.00514924).epsilon(1e-6));
     CHECK(low.indices[0] == 164);
     CHECK(low.indices[1] == 94);
     CHECK(low.indices[2] == 98);

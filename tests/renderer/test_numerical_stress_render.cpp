@@ -14,6 +14,7 @@
 #include <sstream>
 #include <string>
 
+#include "approx.h"
 #include "render_test_util.h"
 #include "test_helpers.h"
 
@@ -135,7 +136,7 @@ TEST_CASE("stress: the Cornell box scaled by 1e-4 .. 1e5 renders the same pictur
         MESSAGE("scale " << s << ": PSNR " << c.psnr.total << " dB, mean " << image_mean(img, 1)
                          << " vs " << image_mean(ref, 1));
         CHECK(c.psnr.total >= 40.0);
-        CHECK(image_mean(img, 1) == doctest::Approx(image_mean(ref, 1)).epsilon(0.002));
+        CHECK(image_mean(img, 1) == test::Approx(image_mean(ref, 1)).epsilon(0.002));
     }
 }
 
@@ -277,7 +278,7 @@ TEST_CASE("stress: geometry 1e6 units from the origin renders like the unshifted
         } else {
             // The edges move by the float spacing (0.0625 of 10 units); acne would add many.
             CHECK(bad <= bad0 + img.pixel_count() / 100);
-            CHECK(image_mean(img, 1) == doctest::Approx(mean0).epsilon(0.01));
+            CHECK(image_mean(img, 1) == test::Approx(mean0).epsilon(0.01));
         }
     }
 }
@@ -383,7 +384,7 @@ TEST_CASE("stress: a glass sphere of IOR 1 is invisible") {
         settings(32, 32, 64));
     sampling::RgbImage without = render_checked(material_scene(""), settings(32, 32, 64));
     for (int c = 0; c < 3; ++c)
-        CHECK(image_mean(with, c) == doctest::Approx(image_mean(without, c)).epsilon(0.02));
+        CHECK(image_mean(with, c) == test::Approx(image_mean(without, c)).epsilon(0.02));
     // Pixel by pixel too (noise of 64 spp with a point light and a sky: a few percent).
     sampling::ImageComparison cmp = sampling::compare_images(with, without, 1.0);
     CHECK(cmp.psnr.total > 30.0);

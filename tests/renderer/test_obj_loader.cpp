@@ -4,6 +4,7 @@
 #include <filesystem>
 #include <fstream>
 
+#include "approx.h"
 #include "renderer/obj_loader.h"
 #include "test_helpers.h"
 
@@ -112,7 +113,7 @@ f 1/1 2/2 5/3
     CHECK(numbers(red.params, "reflectance") == std::vector<double>{0.8f, 0.1f, 0.1f});
     const MaterialDesc &shiny = s.materials.at("shiny");
     CHECK(shiny.type == "coateddiffuse");
-    CHECK(shiny.params.get_float("roughness", -1) == doctest::Approx(std::sqrt(2.0 / 100.0)));
+    CHECK(shiny.params.get_float("roughness", -1) == test::Approx(std::sqrt(2.0 / 100.0)));
     CHECK(shiny.params.get_bool("remaproughness", true) == false);
     const MaterialDesc &tex = s.materials.at("tex");
     CHECK(tex.params.get_texture("reflectance") == "tex:map_Kd");
@@ -153,20 +154,20 @@ TEST_CASE("load_obj_scene: default camera frames the bounding sphere, default li
     Vec3f eye = world_from_camera.point({0, 0, 0});
     float r = 2 * std::sqrt(3.f);
     float d = r / std::sin(radians(kObjCameraFovDeg / 2));
-    CHECK(eye.x == doctest::Approx(1.f));
-    CHECK(eye.y == doctest::Approx(0.f));
-    CHECK(eye.z == doctest::Approx(-1.f + d));
+    CHECK(eye.x == test::Approx(1.f));
+    CHECK(eye.y == test::Approx(0.f));
+    CHECK(eye.z == test::Approx(-1.f + d));
     // Looking along -z, +y up; camera +x maps to world +x (right-handed view, see header).
     Vec3f fwd = world_from_camera.vector({0, 0, 1});
-    CHECK(fwd.z == doctest::Approx(-1.f));
+    CHECK(fwd.z == test::Approx(-1.f));
     Vec3f up = world_from_camera.vector({0, 1, 0});
-    CHECK(up.y == doctest::Approx(1.f));
+    CHECK(up.y == test::Approx(1.f));
     Vec3f right = world_from_camera.vector({1, 0, 0});
-    CHECK(right.x == doctest::Approx(1.f));
+    CHECK(right.x == test::Approx(1.f));
     // The bounding sphere touches the edge of the field of view: the angle between the view
     // axis and the tangent from the eye is half the fov.
     CHECK(std::asin(r / distance(eye, Vec3f(1, 0, -1))) ==
-          doctest::Approx(radians(kObjCameraFovDeg / 2)));
+          test::Approx(radians(kObjCameraFovDeg / 2)));
     REQUIRE(s.lights.size() == 2);
     CHECK(s.lights[0].type == "infinite");
     CHECK(s.lights[1].type == "distant");
@@ -203,9 +204,9 @@ TEST_CASE("load_obj_scene: CornellBox-Original (quads, negative indices, Ke ligh
     CHECK(left.type == "diffuse");
     std::vector<double> kd = numbers(left.params, "reflectance");
     REQUIRE(kd.size() == 3);
-    CHECK(kd[0] == doctest::Approx(0.63));
-    CHECK(kd[1] == doctest::Approx(0.065));
-    CHECK(kd[2] == doctest::Approx(0.05));
+    CHECK(kd[0] == test::Approx(0.63));
+    CHECK(kd[1] == test::Approx(0.065));
+    CHECK(kd[2] == test::Approx(0.05));
     int emitters = 0;
     for (const ShapeDesc &sd : s.shapes)
         if (sd.area_light) {
@@ -234,11 +235,11 @@ TEST_CASE("load_obj_scene: CornellBox-Sphere (mirror and glass)") {
     CHECK(mirror.type == "conductor");
     std::vector<double> r = numbers(mirror.params, "reflectance");
     REQUIRE(r.size() == 3);
-    CHECK(r[0] == doctest::Approx(0.95));
+    CHECK(r[0] == test::Approx(0.95));
     CHECK(mirror.params.get_float("roughness", -1) == 0.f);
     const MaterialDesc &glass = s.materials.at("rightSphere");
     CHECK(glass.type == "dielectric");
-    CHECK(glass.params.get_float("eta", 0) == doctest::Approx(2.5f));
+    CHECK(glass.params.get_float("eta", 0) == test::Approx(2.5f));
     const ShapeDesc *sphere = shape_with_material(s, "leftSphere");
     REQUIRE(sphere);
     CHECK(triangles(*sphere) > 100);

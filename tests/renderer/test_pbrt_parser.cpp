@@ -4,6 +4,7 @@
 #include <filesystem>
 #include <fstream>
 
+#include "approx.h"
 #include "gzip_test_util.h"
 #include "renderer/pbrt_parser.h"
 #include "test_helpers.h"
@@ -25,9 +26,9 @@ std::string error_of(const std::string &text, const std::string &dir = "") {
 }
 
 void check_vec(Vec3f a, Vec3f b, float eps = 1e-5f) {
-    CHECK(a.x == doctest::Approx(b.x).epsilon(eps));
-    CHECK(a.y == doctest::Approx(b.y).epsilon(eps));
-    CHECK(a.z == doctest::Approx(b.z).epsilon(eps));
+    CHECK(a.x == test::Approx(b.x).epsilon(eps));
+    CHECK(a.y == test::Approx(b.y).epsilon(eps));
+    CHECK(a.z == test::Approx(b.z).epsilon(eps));
 }
 
 /// A fresh temporary directory for Include tests.
@@ -158,8 +159,8 @@ Shape "sphere"
     REQUIRE(s.shapes.size() == 2);
     check_vec(s.shapes[0].render_from_object.point({1, 0, 0}), {3, 0, 0});
     Vec3f r = s.shapes[1].render_from_object.point({1, 0, 0});
-    CHECK(r.x == doctest::Approx(0).epsilon(1e-6));
-    CHECK(r.y == doctest::Approx(1));
+    CHECK(r.x == test::Approx(0).epsilon(1e-6));
+    CHECK(r.y == test::Approx(1));
 }
 
 TEST_CASE("named coordinate systems, camera and world") {
@@ -465,14 +466,14 @@ LightSource "point"
     CHECK(a.b == 0.5f);
     CHECK(p.get_rgb("f", false)->g == 0.25f);
     Rgb bb = *p.get_rgb("bb", true);
-    CHECK(bb.luminance() == doctest::Approx(1).epsilon(0.01));
+    CHECK(bb.luminance() == test::Approx(1).epsilon(0.01));
     Rgb flat = *p.get_rgb("flat", false, false);
-    CHECK(flat.r == doctest::Approx(0.5).epsilon(1e-3));
-    CHECK(flat.g == doctest::Approx(0.5).epsilon(1e-3));
-    CHECK(flat.b == doctest::Approx(0.5).epsilon(1e-3));
+    CHECK(flat.r == test::Approx(0.5).epsilon(1e-3));
+    CHECK(flat.g == test::Approx(0.5).epsilon(1e-3));
+    CHECK(flat.b == test::Approx(0.5).epsilon(1e-3));
     Rgb au = *p.get_rgb("au", false);
     CHECK(au.r > au.b);
-    CHECK(p.get_rgb("glass", false)->g == doctest::Approx(1.5185).epsilon(1e-3));
+    CHECK(p.get_rgb("glass", false)->g == test::Approx(1.5185).epsilon(1e-3));
     // A reflectance is clamped to [0, 1].
     CHECK(p.get_rgb("big", false, false)->r == 1.f);
     CHECK(!p.get_rgb("absent", true).has_value());

@@ -4,6 +4,7 @@
 
 #include <cmath>
 
+#include "approx.h"
 #include "render_test_util.h"
 #include "renderer/image_io.h"
 #include "renderer/lights.h"
@@ -45,14 +46,14 @@ TEST_CASE("projection light: the image's top-left lands up-left, as a slide proj
     const float k = 3.f / 1.5f;
     Rgb tl = at({-0.5f, 0.5f, 1}), tr = at({0.5f, 0.5f, 1});
     Rgb bl = at({-0.5f, -0.5f, 1}), br = at({0.5f, -0.5f, 1});
-    CHECK(tl.r == doctest::Approx(k));
+    CHECK(tl.r == test::Approx(k));
     CHECK(tl.g == 0.f);
-    CHECK(tr.g == doctest::Approx(k));
+    CHECK(tr.g == test::Approx(k));
     CHECK(tr.r == 0.f);
-    CHECK(bl.b == doctest::Approx(k));
+    CHECK(bl.b == test::Approx(k));
     CHECK(bl.r == 0.f);
-    CHECK(br.r == doctest::Approx(k));
-    CHECK(br.g == doctest::Approx(k));
+    CHECK(br.r == test::Approx(k));
+    CHECK(br.g == test::Approx(k));
     // Behind the projector and outside the frustum: nothing.
     CHECK(at({0, 0, -1}).is_black());
     CHECK(at({1.5f, 0, 1}).is_black());
@@ -60,7 +61,7 @@ TEST_CASE("projection light: the image's top-left lands up-left, as a slide proj
     // The sample points at the light.
     auto s = p.sample_li(LightSampleContext{{0, 0, 2}, {0, 0, -1}}, {0.5f, 0.5f});
     REQUIRE(s);
-    CHECK(s->wi.z == doctest::Approx(-1.f));
+    CHECK(s->wi.z == test::Approx(-1.f));
     CHECK(s->pdf == 1.f);
 }
 
@@ -88,15 +89,15 @@ TEST_CASE("projection light: its power is the intensity integrated over the sphe
         }
     const double four_pi_over_n = 4 * M_PI / (double(n) * n);
     Rgb phi = p.phi();
-    CHECK(sum[0] * four_pi_over_n == doctest::Approx(phi.r).epsilon(0.01).scale(0));
-    CHECK(sum[1] * four_pi_over_n == doctest::Approx(phi.g).epsilon(0.01).scale(0));
-    CHECK(sum[2] * four_pi_over_n == doctest::Approx(phi.b).epsilon(0.01).scale(0));
+    CHECK(sum[0] * four_pi_over_n == test::Approx(phi.r).epsilon(0.01).scale(0));
+    CHECK(sum[1] * four_pi_over_n == test::Approx(phi.g).epsilon(0.01).scale(0));
+    CHECK(sum[2] * four_pi_over_n == test::Approx(phi.b).epsilon(0.01).scale(0));
 
     // "power" P scales the light so that its luminous power is P.
     auto powered = scene_from_string("WorldBegin\nLightSource \"projection\" \"string filename\" "
                                      "\"" + img + "\" \"float fov\" 60 \"float power\" 50\n");
     REQUIRE(powered);
-    CHECK(only_projection(*powered).phi().luminance() == doctest::Approx(50.f).epsilon(1e-4).scale(0));
+    CHECK(only_projection(*powered).phi().luminance() == test::Approx(50.f).epsilon(1e-4).scale(0));
 }
 
 TEST_CASE("projection light: no image, or a bad fov, is an error with the file's line") {

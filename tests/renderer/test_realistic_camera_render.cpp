@@ -4,6 +4,7 @@
 
 #include <cmath>
 
+#include "approx.h"
 #include "render_test_util.h"
 #include "renderer/image_io.h"
 #include "renderer/lens_system.h"
@@ -52,7 +53,7 @@ TEST_CASE("realistic camera: a uniform sky exposes the centre by the stop's soli
         double mean = 0;
         for (int y = 6; y <= 9; ++y)
             for (int x = 6; x <= 9; ++x) mean += img.at(x, y, c) / 16.0;
-        CHECK(mean == doctest::Approx(expected).epsilon(0.01).scale(0));
+        CHECK(mean == test::Approx(expected).epsilon(0.01).scale(0));
     }
     // The corners are darker (cos^4 and the pupil's foreshortening), never brighter.
     CHECK(img.at(0, 0, 0) < 0.95 * img.at(7, 7, 0));
@@ -140,6 +141,6 @@ TEST_CASE("realistic camera: an aperture image shapes the stop and keeps its exp
         double mean = 0;
         for (int y = 6; y <= 9; ++y)
             for (int x = 6; x <= 9; ++x) mean += img.at(x, y, 1) / 16.0;
-        CHECK(mean == doctest::Approx(expected).epsilon(0.015).scale(0));
+        CHECK(mean == test::Approx(expected).epsilon(0.015).scale(0));
     }
 }

@@ -7,6 +7,7 @@
 #include <cstdio>
 #include <string>
 
+#include "approx.h"
 #include "render_test_util.h"
 #include "renderer/scene_desc.h"
 #include "test_helpers.h"
@@ -169,7 +170,7 @@ LightSource "point" "point3 from" [ 0 0 0 ] "rgb I" [ 2 2 2 ]
         sampling::RgbImage a = render_image(*one, 2, &st1), b = render_image(*two, 2, &st2);
         check_finite(b, st2);
         // Power-proportional selection never picks the zero light: the same estimate.
-        CHECK(image_mean(b, 1) == doctest::Approx(image_mean(a, 1)).epsilon(1e-5));
+        CHECK(image_mean(b, 1) == test::Approx(image_mean(a, 1)).epsilon(1e-5));
     }
 }
 
@@ -277,7 +278,7 @@ TEST_CASE("robustness: scenes scaled by 1e-4, 1e-2, 1e2 and 1e5 render the same 
         sampling::RgbImage img = render_image(*scene_from_string(scaled_scene(s), ov), 2, &st);
         check_finite(img, st);
         // Same seed, same paths: only ray-offset epsilons differ, so the means agree closely.
-        CHECK(image_mean(img, 1) == doctest::Approx(ref_mean).epsilon(0.005));
+        CHECK(image_mean(img, 1) == test::Approx(ref_mean).epsilon(0.005));
         sampling::ImageComparison c = sampling::compare_images(img, ref, 1.0);
         CHECK(c.mse.total < 1e-3 * ref_mean * ref_mean);
     }
@@ -373,7 +374,7 @@ Shape "trianglemesh" "point3 P" [ -10 -10 3  0 -10 3  0 10 3  -10 10 3 ]
                 CAPTURE(x);
                 CAPTURE(y);
                 if (right)
-                    CHECK(img.at(x, y, c) == doctest::Approx(L[c]).epsilon(1e-6));
+                    CHECK(img.at(x, y, c) == test::Approx(L[c]).epsilon(1e-6));
                 else
                     CHECK(img.at(x, y, c) == 0.f);
             }

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <filesystem>
 
+#include "approx.h"
 #include "render_test_util.h"
 #include "renderer/image_io.h"
 #include "renderer/scene_desc.h"
@@ -48,15 +49,15 @@ TEST_CASE("build_scene: pbrt-v4 defaults when Film, Sampler, Integrator, Filter,
     CHECK(sc->settings.seed == 0u);
     CHECK(sc->settings.output == "pbrt.exr");
     CHECK(sc->filter.kind() == PixelFilter::Kind::Gaussian);
-    CHECK(sc->filter.radius().x == doctest::Approx(1.5f));
-    CHECK(sc->filter.radius().y == doctest::Approx(1.5f));
+    CHECK(sc->filter.radius().x == test::Approx(1.5f));
+    CHECK(sc->filter.radius().y == test::Approx(1.5f));
     // fov 90 spans the shorter (vertical) axis: the ray through the middle of the top edge is
     // 45 degrees off axis; the one through the middle of the left edge is atan(16/9) off.
-    CHECK(ray_angle_deg(*sc, {640.f, 0.f}) == doctest::Approx(45.0).epsilon(1e-4));
+    CHECK(ray_angle_deg(*sc, {640.f, 0.f}) == test::Approx(45.0).epsilon(1e-4));
     CHECK(ray_angle_deg(*sc, {0.f, 360.f}) ==
-          doctest::Approx(std::atan(1280.0 / 720.0) * 180.0 / 3.14159265358979323846)
+          test::Approx(std::atan(1280.0 / 720.0) * 180.0 / 3.14159265358979323846)
               .epsilon(1e-4));
-    CHECK(ray_angle_deg(*sc, {640.f, 360.f}) == doctest::Approx(0.0).epsilon(1e-3));
+    CHECK(ray_angle_deg(*sc, {640.f, 360.f}) == test::Approx(0.0).epsilon(1e-3));
 }
 
 TEST_CASE("build_scene: defaults inside directives that are present but give no parameters") {
@@ -72,8 +73,8 @@ Camera "perspective"
     CHECK(sc->settings.spp == 16);
     CHECK(sc->settings.max_depth == 5);
     CHECK(sc->filter.kind() == PixelFilter::Kind::Gaussian);
-    CHECK(sc->filter.radius().x == doctest::Approx(1.5f));
-    CHECK(ray_angle_deg(*sc, {640.f, 0.f}) == doctest::Approx(45.0).epsilon(1e-4));
+    CHECK(sc->filter.radius().x == test::Approx(1.5f));
+    CHECK(ray_angle_deg(*sc, {640.f, 0.f}) == test::Approx(45.0).epsilon(1e-4));
 }
 
 TEST_CASE("build_scene: scene values are read, and box/triangle filters keep pbrt's radii") {
@@ -91,13 +92,13 @@ Camera "perspective" "float fov" [ 30 ]
     CHECK(sc->settings.max_depth == 3);
     CHECK(sc->settings.output == "x.exr");
     CHECK(sc->filter.kind() == PixelFilter::Kind::Triangle);
-    CHECK(sc->filter.radius().x == doctest::Approx(2.f));
-    CHECK(ray_angle_deg(*sc, {32.f, 0.f}) == doctest::Approx(15.0).epsilon(1e-4));
+    CHECK(sc->filter.radius().x == test::Approx(2.f));
+    CHECK(ray_angle_deg(*sc, {32.f, 0.f}) == test::Approx(15.0).epsilon(1e-4));
 
     std::unique_ptr<Scene> box = scene_from_string("PixelFilter \"box\"\n" +
                                                    std::string(kOneTriangle));
     CHECK(box->filter.kind() == PixelFilter::Kind::Box);
-    CHECK(box->filter.radius().x == doctest::Approx(0.5f));
+    CHECK(box->filter.radius().x == test::Approx(0.5f));
 }
 
 TEST_CASE("build_scene: SceneOverrides win over the scene file") {
@@ -119,7 +120,7 @@ Integrator "path" "integer maxdepth" [ 3 ]
     CHECK(sc->settings.seed == 99u);
     CHECK(sc->settings.max_depth == 0);
     // The camera is built for the overridden film: the top-edge ray still spans fov/2 = 45.
-    CHECK(ray_angle_deg(*sc, {10.f, 0.f}) == doctest::Approx(45.0).epsilon(1e-4));
+    CHECK(ray_angle_deg(*sc, {10.f, 0.f}) == test::Approx(45.0).epsilon(1e-4));
 
     // Unset fields keep the file's values.
     SceneOverrides only_spp;
@@ -336,17 +337,17 @@ TEST_CASE("build_scene: area-light \"power\" is per pbrt-v4 shape: per triangle,
     auto patch = test::scene_from_string(
         head + "Shape \"bilinearmesh\" \"point3 P\" [ 0 0 0  2 0 0  0 1 0  2 1 0 ]\n");
     REQUIRE(patch->lights.size() == 2);
-    CHECK(total_power(*patch) == doctest::Approx(10.0).epsilon(1e-4));
+    CHECK(total_power(*patch) == test::Approx(10.0).epsilon(1e-4));
     // Two patches of different sizes: 10 W each, 20 W in all.
     auto two = test::scene_from_string(
         head + "Shape \"bilinearmesh\" \"point3 P\" [ 0 0 0  2 0 0  0 1 0  2 1 0  "
                "0 0 5  1 0 5  0 1 5  1 1 5 ] \"integer indices\" [ 0 1 2 3  4 5 6 7 ]\n");
-    CHECK(total_power(*two) == doctest::Approx(20.0).epsilon(1e-4));
+    CHECK(total_power(*two) == test::Approx(20.0).epsilon(1e-4));
     // The same rectangle as a trianglemesh is two pbrt shapes (Triangle): 10 W each.
     auto tris = test::scene_from_string(
         head + "Shape \"trianglemesh\" \"point3 P\" [ 0 0 0  2 0 0  2 1 0  0 1 0 ] "
                "\"integer indices\" [ 0 1 2  0 2 3 ]\n");
-    CHECK(total_power(*tris) == doctest::Approx(20.0).epsilon(1e-4));
+    CHECK(total_power(*tris) == test::Approx(20.0).epsilon(1e-4));
     // A PLY quad is a bilinear patch in pbrt-v4 as well; its triangles are per triangle.
     auto dir = test::temp_dir("scene_builder_ply_power");
     test::write_text(dir / "quad_tri.ply",
@@ -356,5 +357,5 @@ TEST_CASE("build_scene: area-light \"power\" is per pbrt-v4 shape: per triangle,
     auto ply = test::scene_from_string(head + "Shape \"plymesh\" \"string filename\" \"" +
                                        (dir / "quad_tri.ply").string() + "\"\n");
     REQUIRE(ply->lights.size() == 3);
-    CHECK(total_power(*ply) == doctest::Approx(20.0).epsilon(1e-4));
+    CHECK(total_power(*ply) == test::Approx(20.0).epsilon(1e-4));
 }

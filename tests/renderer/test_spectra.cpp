@@ -3,6 +3,7 @@
 
 #include <vector>
 
+#include "approx.h"
 #include "renderer/spectra.h"
 
 using namespace tessera;
@@ -21,40 +22,40 @@ const std::vector<float> kD65 = {
 
 TEST_CASE("CIE matching-function fit: peaks and equal areas") {
     // ybar peaks at 555 nm with value 1; xbar, ybar and zbar have (nearly) equal integrals.
-    CHECK(cie_xyz(555).y == doctest::Approx(1.0).epsilon(0.01));
+    CHECK(cie_xyz(555).y == test::Approx(1.0).epsilon(0.01));
     CHECK(cie_xyz(450).z > 1.5f);
     double sx = 0, sy = 0, sz = 0;
     for (int l = 360; l <= 830; ++l) {
         Vec3f c = cie_xyz(float(l));
         sx += c.x, sy += c.y, sz += c.z;
     }
-    CHECK(sy == doctest::Approx(106.857).epsilon(0.01));  // CIE_Y_integral
-    CHECK(sx / sy == doctest::Approx(1.0).epsilon(0.01));
-    CHECK(sz / sy == doctest::Approx(1.0).epsilon(0.01));
+    CHECK(sy == test::Approx(106.857).epsilon(0.01));  // CIE_Y_integral
+    CHECK(sx / sy == test::Approx(1.0).epsilon(0.01));
+    CHECK(sz / sy == test::Approx(1.0).epsilon(0.01));
 }
 
 TEST_CASE("D65 as an illuminant is sRGB white; equal energy is slightly pink") {
     std::vector<float> lambda;
     for (int i = 0; i < 41; ++i) lambda.push_back(380.f + 10.f * i);
     Rgb d65 = sampled_spectrum_rgb(lambda, kD65, true);
-    CHECK(d65.r == doctest::Approx(1).epsilon(0.005));
-    CHECK(d65.g == doctest::Approx(1).epsilon(0.005));
-    CHECK(d65.b == doctest::Approx(1).epsilon(0.005));
+    CHECK(d65.r == test::Approx(1).epsilon(0.005));
+    CHECK(d65.g == test::Approx(1).epsilon(0.005));
+    CHECK(d65.b == test::Approx(1).epsilon(0.005));
     // Illuminant E in linear sRGB at luminance 1 is about (1.205, 0.948, 0.909).
     std::vector<float> l2 = {300, 800}, flat = {3, 3};
     Rgb e = sampled_spectrum_rgb(l2, flat, true);
-    CHECK(e.r == doctest::Approx(1.205).epsilon(0.01));
-    CHECK(e.g == doctest::Approx(0.948).epsilon(0.01));
-    CHECK(e.b == doctest::Approx(0.909).epsilon(0.01));
-    CHECK(e.luminance() == doctest::Approx(1).epsilon(1e-3));
+    CHECK(e.r == test::Approx(1.205).epsilon(0.01));
+    CHECK(e.g == test::Approx(0.948).epsilon(0.01));
+    CHECK(e.b == test::Approx(0.909).epsilon(0.01));
+    CHECK(e.luminance() == test::Approx(1).epsilon(1e-3));
 }
 
 TEST_CASE("reflectance spectra: flat is grey, a red step is red") {
     std::vector<float> l = {300, 800}, v = {0.3f, 0.3f};
     Rgb grey = sampled_spectrum_rgb(l, v, false);
-    CHECK(grey.r == doctest::Approx(0.3).epsilon(1e-4));
-    CHECK(grey.g == doctest::Approx(0.3).epsilon(1e-4));
-    CHECK(grey.b == doctest::Approx(0.3).epsilon(1e-4));
+    CHECK(grey.r == test::Approx(0.3).epsilon(1e-4));
+    CHECK(grey.g == test::Approx(0.3).epsilon(1e-4));
+    CHECK(grey.b == test::Approx(0.3).epsilon(1e-4));
     // Zero below 600 nm, one above: a saturated red with no negative components.
     std::vector<float> ls = {300, 599, 600, 800}, vs = {0, 0, 1, 1};
     Rgb red = sampled_spectrum_rgb(ls, vs, false);
@@ -67,10 +68,10 @@ TEST_CASE("reflectance spectra: flat is grey, a red step is red") {
 
 TEST_CASE("blackbody: luminance 1, 6500 K near white, warm and cool ends") {
     Rgb w = blackbody_rgb(6500);
-    CHECK(w.luminance() == doctest::Approx(1).epsilon(0.002));
-    CHECK(w.r == doctest::Approx(1).epsilon(0.06));
-    CHECK(w.g == doctest::Approx(1).epsilon(0.06));
-    CHECK(w.b == doctest::Approx(1).epsilon(0.06));
+    CHECK(w.luminance() == test::Approx(1).epsilon(0.002));
+    CHECK(w.r == test::Approx(1).epsilon(0.06));
+    CHECK(w.g == test::Approx(1).epsilon(0.06));
+    CHECK(w.b == test::Approx(1).epsilon(0.06));
     Rgb warm = blackbody_rgb(2856);  // illuminant A: orange
     CHECK(warm.r > 1.5f * warm.g);
     CHECK(warm.g > 2.f * warm.b);
@@ -80,7 +81,7 @@ TEST_CASE("blackbody: luminance 1, 6500 K near white, warm and cool ends") {
     CHECK(blackbody_rgb(1000).b >= 0.f);  // out of gamut: clamped
     // Planck's law at the peak of a 5000 K body (Wien: 579.6 nm), W/(m^2 sr m).
     // 2hc^2 / lambda^5 / (exp(hc / (lambda k T)) - 1) = 1.8185e15 / 142.0 by hand.
-    CHECK(planck(579.6, 5000) == doctest::Approx(1.2806e13).epsilon(0.005));
+    CHECK(planck(579.6, 5000) == test::Approx(1.2806e13).epsilon(0.005));
     CHECK(planck(579.6, 5000) > planck(560, 5000));
     CHECK(planck(579.6, 5000) > planck(600, 5000));
 }
@@ -88,9 +89,9 @@ TEST_CASE("blackbody: luminance 1, 6500 K near white, warm and cool ends") {
 TEST_CASE("band average of a piecewise-linear spectrum") {
     std::vector<float> l = {400, 700}, v = {0, 3};  // value = (lambda - 400) / 100
     Rgb a = band_average_rgb(l, v);
-    CHECK(a.r == doctest::Approx(2.5).epsilon(1e-4));
-    CHECK(a.g == doctest::Approx(1.5).epsilon(1e-4));
-    CHECK(a.b == doctest::Approx(0.5).epsilon(1e-4));
+    CHECK(a.r == test::Approx(2.5).epsilon(1e-4));
+    CHECK(a.g == test::Approx(1.5).epsilon(1e-4));
+    CHECK(a.b == test::Approx(0.5).epsilon(1e-4));
 }
 
 TEST_CASE("named metals: plausible optical constants") {
@@ -121,7 +122,7 @@ TEST_CASE("named metals: plausible optical constants") {
 }
 
 TEST_CASE("named glasses, illuminants and unsupported names") {
-    CHECK(named_spectrum_rgb("glass-BK7")->g == doctest::Approx(1.5185).epsilon(1e-4));
+    CHECK(named_spectrum_rgb("glass-BK7")->g == test::Approx(1.5185).epsilon(1e-4));
     CHECK(named_spectrum_rgb("glass-F11")->g == named_spectrum_rgb("glass-SF11")->g);
     CHECK(named_spectrum_rgb("glass-LASF9")->r > named_spectrum_rgb("glass-FK51A")->r);
     CHECK(!named_spectrum_note("glass-BK7").empty());
@@ -130,10 +131,10 @@ TEST_CASE("named glasses, illuminants and unsupported names") {
     CHECK(d65.b == 1.f);
     CHECK(named_spectrum_note("stdillum-D65").empty());
     Rgb a = *named_spectrum_rgb("stdillum-A");
-    CHECK(a.luminance() == doctest::Approx(1).epsilon(0.002));
+    CHECK(a.luminance() == test::Approx(1).epsilon(0.002));
     CHECK(a.r > a.b);
     Rgb a_refl = *named_spectrum_rgb("stdillum-A", false);
-    CHECK(a_refl.max_value() == doctest::Approx(1));
+    CHECK(a_refl.max_value() == test::Approx(1));
     CHECK(!named_spectrum_note("stdillum-F11").empty());
     CHECK(!named_spectrum_rgb("canon_eos_100d_r").has_value());
     CHECK(!named_spectrum_rgb("no-such-spectrum").has_value());
@@ -143,32 +144,33 @@ TEST_CASE("daylight_xy: pbrt-v4's D(T) white points") {
     // D65 and D50 (CIE 15:2004: (0.31272, 0.32903), (0.34567, 0.35850)) at their nominal
     // temperatures, which pbrt-v4 rescales by 1.4388 / 1.4380 as the CIE does.
     Vec2f d65 = daylight_xy(6500.f), d50 = daylight_xy(5000.f);
-    CHECK(d65.x == doctest::Approx(0.31272).epsilon(1e-3));
-    CHECK(d65.y == doctest::Approx(0.32903).epsilon(1e-3));
-    CHECK(d50.x == doctest::Approx(0.34567).epsilon(1e-3));
-    CHECK(d50.y == doctest::Approx(0.35850).epsilon(1e-3));
+    CHECK(d65.x == test::Approx(0.31272).epsilon(1e-3));
+    CHECK(d65.y == test::Approx(0.32903).epsilon(1e-3));
+    CHECK(d50.x == test::Approx(0.34567).epsilon(1e-3));
+    CHECK(d50.y == test::Approx(0.35850).epsilon(1e-3));
     // Above 7000 K the second branch: D75 (0.29902, 0.31485).
     Vec2f d75 = daylight_xy(7500.f);
-    CHECK(d75.x == doctest::Approx(0.29902).epsilon(1e-3));
-    CHECK(d75.y == doctest::Approx(0.31485).epsilon(1e-3));
+    CHECK(d75.x == test::Approx(0.29902).epsilon(1e-3));
+    CHECK(d75.y == test::Approx(0.31485).epsilon(1e-3));
     // Below 4000 K a blackbody: the Planckian locus at 3000 K is (0.4369, 0.4041).
     Vec2f bb = daylight_xy(3000.f / (1.4388f / 1.4380f));
-    CHECK(bb.x == doctest::Approx(0.4369).epsilon(5e-3));
-    CHECK(bb.y == doctest::Approx(0.4041).epsilon(5e-3));
+    CHECK(bb.x == test::Approx(0.4369).epsilon(5e-3));
+    CHECK(bb.y == test::Approx(0.4041).epsilon(5e-3));
 }
 
 TEST_CASE("white_balance_srgb: identity for equal whites, maps the source white to the target") {
     std::array<float, 9> id = white_balance_srgb(kSrgbWhiteXy, kSrgbWhiteXy);
-    for (int i = 0; i < 9; ++i) CHECK(id[size_t(i)] == doctest::Approx(i % 4 == 0 ? 1.f : 0.f).epsilon(1e-6));
+    for (int i = 0; i < 9; ++i)
+        CHECK(id[size_t(i)] == test::Approx(i % 4 == 0 ? 1.f : 0.f).epsilon(1e-6));
     // The sRGB colour of the D50 white (Y = 1) goes to the sRGB colour of D65 at Y = 1: (1, 1, 1).
     Vec2f d50{0.34567f, 0.35850f};
     Rgb src = xyz_to_linear_srgb({d50.x / d50.y, 1.f, (1.f - d50.x - d50.y) / d50.y});
     std::array<float, 9> m = white_balance_srgb(d50, kSrgbWhiteXy);
     Rgb out{m[0] * src.r + m[1] * src.g + m[2] * src.b, m[3] * src.r + m[4] * src.g + m[5] * src.b,
             m[6] * src.r + m[7] * src.g + m[8] * src.b};
-    CHECK(out.r == doctest::Approx(1.0).epsilon(2e-3));
-    CHECK(out.g == doctest::Approx(1.0).epsilon(2e-3));
-    CHECK(out.b == doctest::Approx(1.0).epsilon(2e-3));
+    CHECK(out.r == test::Approx(1.0).epsilon(2e-3));
+    CHECK(out.g == test::Approx(1.0).epsilon(2e-3));
+    CHECK(out.b == test::Approx(1.0).epsilon(2e-3));
     // Bradford keeps luminance of the white: Y of out equals Y of src (= 1).
-    CHECK(0.2126f * out.r + 0.7152f * out.g + 0.0722f * out.b == doctest::Approx(1.0).epsilon(2e-3));
+    CHECK(0.2126f * out.r + 0.7152f * out.g + 0.0722f * out.b == test::Approx(1.0).epsilon(2e-3));
 }

@@ -2,6 +2,7 @@
 // mappings, checked against six coloured emitting walls around the camera.
 #include <doctest/doctest.h>
 
+#include "approx.h"
 #include "render_test_util.h"
 
 using namespace tessera;
@@ -39,9 +40,9 @@ std::string cube_scene(const std::string &camera, int w, int h) {
 void check_rgb(const sampling::RgbImage &img, int x, int y, Rgb expect) {
     CAPTURE(x);
     CAPTURE(y);
-    CHECK(img.at(x, y, 0) == doctest::Approx(expect.r));
-    CHECK(img.at(x, y, 1) == doctest::Approx(expect.g));
-    CHECK(img.at(x, y, 2) == doctest::Approx(expect.b));
+    CHECK(img.at(x, y, 0) == test::Approx(expect.r));
+    CHECK(img.at(x, y, 1) == test::Approx(expect.g));
+    CHECK(img.at(x, y, 2) == test::Approx(expect.b));
 }
 
 }  // namespace
@@ -73,7 +74,7 @@ TEST_CASE("spherical camera, equal-area (the default): centre +y, corners -y") {
     // Every direction is seen exactly once: the six walls each cover a sixth of the solid
     // angle, but a cube's faces subtend equal solid angles, so each colour covers 1/6 of an
     // equal-area image. Mean of R = (red + yellow + magenta) / 6 = 0.5, likewise G and B.
-    for (int c = 0; c < 3; ++c) CHECK(image_mean(img, c) == doctest::Approx(0.5).epsilon(0.02));
+    for (int c = 0; c < 3; ++c) CHECK(image_mean(img, c) == test::Approx(0.5).epsilon(0.02));
 }
 
 TEST_CASE("spherical camera: an unknown mapping is an error with the file's line") {

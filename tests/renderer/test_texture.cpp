@@ -7,6 +7,7 @@
 #include <filesystem>
 #include <thread>
 
+#include "approx.h"
 #include "renderer/texture.h"
 #include "test_helpers.h"
 
@@ -99,9 +100,9 @@ float srgb8(int v) {
 
 TEST_CASE("srgb_to_linear matches the IEC 61966-2-1 curve") {
     CHECK(srgb_to_linear(0.f) == 0.f);
-    CHECK(srgb_to_linear(1.f) == doctest::Approx(1.f));
-    CHECK(srgb8(188) == doctest::Approx(0.50289).epsilon(1e-4));
-    CHECK(srgb_to_linear(0.04f) == doctest::Approx(0.04f / 12.92f));
+    CHECK(srgb_to_linear(1.f) == test::Approx(1.f));
+    CHECK(srgb8(188) == test::Approx(0.50289).epsilon(1e-4));
+    CHECK(srgb_to_linear(0.04f) == test::Approx(0.04f / 12.92f));
 }
 
 TEST_CASE("constant, scale and mix") {
@@ -125,17 +126,17 @@ TEST_CASE("constant, scale and mix") {
     CHECK(set.size() == d.size());
     TextureEvalContext c = at_uv(0.3f, 0.7f);
     CHECK(set.get_float("half")->evaluate(c) == 0.5f);
-    CHECK(set.get_float("scaled")->evaluate(c) == doctest::Approx(1.5f));
+    CHECK(set.get_float("scaled")->evaluate(c) == test::Approx(1.5f));
     Rgb r2 = set.get_spectrum("redx2")->evaluate(c);
-    CHECK(r2.r == doctest::Approx(1.6f));
-    CHECK(r2.g == doctest::Approx(0.2f));
-    CHECK(r2.b == doctest::Approx(0.4f));
-    CHECK(set.get_float("mixf")->evaluate(c) == doctest::Approx(0.35f));
+    CHECK(r2.r == test::Approx(1.6f));
+    CHECK(r2.g == test::Approx(0.2f));
+    CHECK(r2.b == test::Approx(0.4f));
+    CHECK(set.get_float("mixf")->evaluate(c) == test::Approx(0.35f));
     Rgb m = set.get_spectrum("mixs")->evaluate(c);
-    CHECK(m.r == doctest::Approx(0.4f));
-    CHECK(m.g == doctest::Approx(0.55f));
-    CHECK(m.b == doctest::Approx(0.1f));
-    CHECK(set.get_float("mixdef")->evaluate(c) == doctest::Approx(0.5f));
+    CHECK(m.r == test::Approx(0.4f));
+    CHECK(m.g == test::Approx(0.55f));
+    CHECK(m.b == test::Approx(0.1f));
+    CHECK(set.get_float("mixdef")->evaluate(c) == test::Approx(0.5f));
     CHECK(set.get_float("red") == nullptr);  // float and spectrum names are separate
     CHECK(set.get_spectrum("nothing") == nullptr);
 }
@@ -167,11 +168,11 @@ TEST_CASE("checkerboard 2D: cells, uv mapping, footprint filtering") {
     CHECK((a.r == 1.f && a.b == 0.f));
     CHECK((b.r == 0.f && b.b == 1.f));
     // A footprint of many cells averages to 1/2; a tiny one inside a cell is exact.
-    CHECK(c->evaluate(at_uv(0.37f, 0.61f, 20.f, 20.f)) == doctest::Approx(0.5f).epsilon(0.01));
+    CHECK(c->evaluate(at_uv(0.37f, 0.61f, 20.f, 20.f)) == test::Approx(0.5f).epsilon(0.01));
     CHECK(c->evaluate(at_uv(0.5f, 0.5f, 0.01f, 0.01f)) == 1.f);
     // Straddling one edge in s only (t well inside the cell): the tent filter is symmetric,
     // so exactly on the edge the result is 1/2.
-    CHECK(c->evaluate(at_uv(1.0f, 0.5f, 0.1f, 0.01f)) == doctest::Approx(0.5f));
+    CHECK(c->evaluate(at_uv(1.0f, 0.5f, 0.1f, 0.01f)) == test::Approx(0.5f));
     // Slightly inside cell 0: more than half of the footprint has value 1.
     float near_edge = c->evaluate(at_uv(0.97f, 0.5f, 0.1f, 0.01f));
     CHECK(near_edge > 0.5f);
@@ -256,25 +257,25 @@ TEST_CASE("bilerp and the spherical, cylindrical and planar mappings") {
     };
     TextureSet set(d);
     TextureEvalContext c = at_uv(0.6f, 0.4f);
-    CHECK(set.get_float("uv_s")->evaluate(c) == doctest::Approx(0.4f));  // 0.5 * 0.6 + 0.1
-    CHECK(set.get_float("uv_t")->evaluate(c) == doctest::Approx(0.3f));  // 2 * 0.4 - 0.5
+    CHECK(set.get_float("uv_s")->evaluate(c) == test::Approx(0.4f));  // 0.5 * 0.6 + 0.1
+    CHECK(set.get_float("uv_t")->evaluate(c) == test::Approx(0.3f));  // 2 * 0.4 - 0.5
     // Spherical: s = theta / pi, t = phi / 2pi (pbrt-v4).
-    CHECK(set.get_float("sph_s")->evaluate(at_p({0, 0, 3})) == doctest::Approx(0.f));
-    CHECK(set.get_float("sph_s")->evaluate(at_p({2, 0, 0})) == doctest::Approx(0.5f));
-    CHECK(set.get_float("sph_s")->evaluate(at_p({0, 0, -1})) == doctest::Approx(1.f));
-    CHECK(set.get_float("sph_t")->evaluate(at_p({0, 1, 0})) == doctest::Approx(0.25f));
-    CHECK(set.get_float("sph_t")->evaluate(at_p({-1, 0, 0.5f})) == doctest::Approx(0.5f));
+    CHECK(set.get_float("sph_s")->evaluate(at_p({0, 0, 3})) == test::Approx(0.f));
+    CHECK(set.get_float("sph_s")->evaluate(at_p({2, 0, 0})) == test::Approx(0.5f));
+    CHECK(set.get_float("sph_s")->evaluate(at_p({0, 0, -1})) == test::Approx(1.f));
+    CHECK(set.get_float("sph_t")->evaluate(at_p({0, 1, 0})) == test::Approx(0.25f));
+    CHECK(set.get_float("sph_t")->evaluate(at_p({-1, 0, 0.5f})) == test::Approx(0.5f));
     // Cylindrical: s = (pi + atan2(y, x)) / 2pi, t = z in texture space.
-    CHECK(set.get_float("cyl_s")->evaluate(at_p({1, 0, 0})) == doctest::Approx(0.5f));
-    CHECK(set.get_float("cyl_s")->evaluate(at_p({0, 1, 0})) == doctest::Approx(0.75f));
-    CHECK(set.get_float("cyl_t")->evaluate(at_p({1, 0, 2.3f})) == doctest::Approx(0.3f));
+    CHECK(set.get_float("cyl_s")->evaluate(at_p({1, 0, 0})) == test::Approx(0.5f));
+    CHECK(set.get_float("cyl_s")->evaluate(at_p({0, 1, 0})) == test::Approx(0.75f));
+    CHECK(set.get_float("cyl_t")->evaluate(at_p({1, 0, 2.3f})) == test::Approx(0.3f));
     // Planar: s = udelta + dot(p_tex, v1), t = vdelta + dot(p_tex, v2); p_tex = p - (1,0,0).
-    CHECK(set.get_float("pl_s")->evaluate(at_p({5, 9, 0.5f})) == doctest::Approx(0.75f));
-    CHECK(set.get_float("pl_t")->evaluate(at_p({1.25f, 9, 0.5f})) == doctest::Approx(0.75f));
+    CHECK(set.get_float("pl_s")->evaluate(at_p({5, 9, 0.5f})) == test::Approx(0.75f));
+    CHECK(set.get_float("pl_t")->evaluate(at_p({1.25f, 9, 0.5f})) == test::Approx(0.75f));
     Rgb q = set.get_spectrum("bl_rgb")->evaluate(at_uv(0.5f, 0.5f));
-    CHECK(q.r == doctest::Approx(0.25f));
-    CHECK(q.g == doctest::Approx(0.f));
-    CHECK(q.b == doctest::Approx(0.25f));
+    CHECK(q.r == test::Approx(0.25f));
+    CHECK(q.g == test::Approx(0.f));
+    CHECK(q.b == test::Approx(0.25f));
 }
 
 TEST_CASE("directionmix follows the normal") {
@@ -286,9 +287,9 @@ TEST_CASE("directionmix follows the normal") {
     TextureSet set(d);
     TextureEvalContext c = at_uv(0, 0);
     c.n = {0, 0, -1};
-    CHECK(set.get_float("dm")->evaluate(c) == doctest::Approx(1.f));
+    CHECK(set.get_float("dm")->evaluate(c) == test::Approx(1.f));
     c.n = normalize(Vec3f(1, 0, 1));
-    CHECK(set.get_float("dm")->evaluate(c) == doctest::Approx(std::sqrt(0.5f)));
+    CHECK(set.get_float("dm")->evaluate(c) == test::Approx(std::sqrt(0.5f)));
 }
 
 TEST_CASE("material parameter helpers") {
@@ -312,12 +313,12 @@ TEST_CASE("material parameter helpers") {
     CHECK(set.spectrum_param(ps, "reflectance", std::nullopt, false) ==
           set.spectrum_param(ps, "reflectance", std::nullopt, false));
     Rgb kd = set.spectrum_param(ps, "Kd", Rgb(0.5f), false)->evaluate(c);
-    CHECK(kd.b == doctest::Approx(0.6f));
+    CHECK(kd.b == test::Approx(0.6f));
     CHECK(set.spectrum_param(ps, "absent", std::nullopt, false) == nullptr);
     Rgb def = set.spectrum_param(ps, "absent", Rgb(0.25f), false)->evaluate(c);
     CHECK(def.g == 0.25f);
     CHECK(set.float_param(ps, "roughness", 0.f) == set.get_float("rough"));
-    CHECK(set.float_param(ps, "eta", 1.5f)->evaluate(c) == doctest::Approx(1.33f));
+    CHECK(set.float_param(ps, "eta", 1.5f)->evaluate(c) == test::Approx(1.33f));
     CHECK(set.float_param(ps, "absent", 1.5f)->evaluate(c) == 1.5f);
     CHECK_THROWS_AS(set.float_param(ps, "missing", 0.f), SceneError);
     CHECK_THROWS_AS(set.spectrum_param(ps, "wrongkind", std::nullopt, true), SceneError);
@@ -365,46 +366,46 @@ TEST_CASE("imagemap: sRGB linearisation, v flip, wrap modes, scale and invert") 
     const SpectrumTexture *img = set.get_spectrum("img");
     // Texel centres: s = (i + 0.5) / 4; top row at v = 0.75 (pbrt looks up (s, 1 - v)).
     Rgb tl = img->evaluate(at_uv(0.125f, 0.75f));
-    CHECK(tl.r == doctest::Approx(srgb8(188)).epsilon(1e-3));
-    CHECK(tl.g == doctest::Approx(0.f));
-    CHECK(tl.b == doctest::Approx(0.f));
+    CHECK(tl.r == test::Approx(srgb8(188)).epsilon(1e-3));
+    CHECK(tl.g == test::Approx(0.f));
+    CHECK(tl.b == test::Approx(0.f));
     Rgb tr = img->evaluate(at_uv(0.875f, 0.75f));
-    CHECK(tr.g == doctest::Approx(1.f).epsilon(1e-3));
+    CHECK(tr.g == test::Approx(1.f).epsilon(1e-3));
     Rgb bl = img->evaluate(at_uv(0.125f, 0.25f));
-    CHECK(bl.r == doctest::Approx(srgb8(10)).epsilon(2e-3));
-    CHECK(bl.g == doctest::Approx(srgb8(20)).epsilon(2e-3));
-    CHECK(bl.b == doctest::Approx(srgb8(30)).epsilon(2e-3));
+    CHECK(bl.r == test::Approx(srgb8(10)).epsilon(2e-3));
+    CHECK(bl.g == test::Approx(srgb8(20)).epsilon(2e-3));
+    CHECK(bl.b == test::Approx(srgb8(30)).epsilon(2e-3));
     Rgb b3 = img->evaluate(at_uv(0.625f, 0.25f));
-    CHECK(b3.g == doctest::Approx(srgb8(128)).epsilon(1e-3));
+    CHECK(b3.g == test::Approx(srgb8(128)).epsilon(1e-3));
     // Half way between two texel centres, bilinear filtering averages the *linear* values.
     Rgb mid = img->evaluate(at_uv(0.25f, 0.75f));
-    CHECK(mid.r == doctest::Approx(0.5f * srgb8(188)).epsilon(2e-3));
-    CHECK(mid.g == doctest::Approx(0.5f * srgb8(188)).epsilon(2e-3));
+    CHECK(mid.r == test::Approx(0.5f * srgb8(188)).epsilon(2e-3));
+    CHECK(mid.g == test::Approx(0.5f * srgb8(188)).epsilon(2e-3));
     // Float image maps of an RGB image read the average of the linear channels (pbrt-v4's
     // MIPMap::Bilerp<Float>); the top-left texel is (188, 0, 0).
     CHECK(set.get_float("imgf")->evaluate(at_uv(0.125f, 0.75f)) ==
-          doctest::Approx(srgb8(188) / 3).epsilon(1e-3));
+          test::Approx(srgb8(188) / 3).epsilon(1e-3));
     // The "point" (and "ewa") filter reads channel 0 instead (pbrt-v4's MIPMap::Texel<Float>).
     CHECK(set.get_float("point")->evaluate(at_uv(0.2f, 0.6f)) ==
-          doctest::Approx(srgb8(188)).epsilon(1e-3));
+          test::Approx(srgb8(188)).epsilon(1e-3));
     // Wrap modes one texel width beyond s = 1.
     Rgb rep = img->evaluate(at_uv(1.125f, 0.75f));
-    CHECK(rep.r == doctest::Approx(srgb8(188)).epsilon(1e-3));
+    CHECK(rep.r == test::Approx(srgb8(188)).epsilon(1e-3));
     Rgb blk = set.get_spectrum("black")->evaluate(at_uv(1.125f, 0.75f));
     CHECK(blk.r == 0.f);
     CHECK(blk.g == 0.f);
     Rgb clp = set.get_spectrum("clamp")->evaluate(at_uv(1.125f, 0.75f));
-    CHECK(clp.r == doctest::Approx(1.f).epsilon(1e-3));  // the white edge texel
-    CHECK(clp.b == doctest::Approx(1.f).epsilon(1e-3));
+    CHECK(clp.r == test::Approx(1.f).epsilon(1e-3));  // the white edge texel
+    CHECK(clp.b == test::Approx(1.f).epsilon(1e-3));
     // Encodings.
     CHECK(set.get_spectrum("lin")->evaluate(at_uv(0.125f, 0.75f)).r ==
-          doctest::Approx(188.f / 255.f).epsilon(1e-3));
+          test::Approx(188.f / 255.f).epsilon(1e-3));
     CHECK(set.get_spectrum("gamma")->evaluate(at_uv(0.125f, 0.75f)).r ==
-          doctest::Approx(std::pow(188.f / 255.f, 2.2f)).epsilon(1e-3));
+          test::Approx(std::pow(188.f / 255.f, 2.2f)).epsilon(1e-3));
     // invert: max(0, 1 - scale * value).
     Rgb inv = set.get_spectrum("inv")->evaluate(at_uv(0.125f, 0.75f));
-    CHECK(inv.r == doctest::Approx(1.f - 0.5f * srgb8(188)).epsilon(1e-3));
-    CHECK(inv.g == doctest::Approx(1.f));
+    CHECK(inv.r == test::Approx(1.f - 0.5f * srgb8(188)).epsilon(1e-3));
+    CHECK(inv.g == test::Approx(1.f));
 }
 
 TEST_CASE("imagemap: float EXR stays linear and unclamped, relative file names") {
@@ -416,10 +417,10 @@ TEST_CASE("imagemap: float EXR stays linear and unclamped, relative file names")
     TextureSet set({t});
     const SpectrumTexture *hdr = set.get_spectrum("hdr");
     Rgb a = hdr->evaluate(at_uv(0.25f, 0.75f));
-    CHECK(a.r == doctest::Approx(0.25f));
-    CHECK(a.g == doctest::Approx(2.5f));
+    CHECK(a.r == test::Approx(0.25f));
+    CHECK(a.g == test::Approx(2.5f));
     Rgb b = hdr->evaluate(at_uv(0.75f, 0.25f));
-    CHECK(b.r == doctest::Approx(8.f));
+    CHECK(b.r == test::Approx(8.f));
     ParamSet ps;
     ps.params = {str("texture", "reflectance", "hdr")};
     CHECK(set.spectrum_param(ps, "reflectance", std::nullopt, false)
@@ -440,12 +441,12 @@ TEST_CASE("imagemap: a large footprint averages a checkerboard image, from many 
         const SpectrumTexture *t = set.get_spectrum("chk");
         // Inside a square with a tiny footprint: exactly black or white (grey image -> rgb).
         Rgb white = t->evaluate(at_uv(12.f / 64, 1 - 4.f / 64, 1e-4f, 1e-4f));
-        CHECK(white.r == doctest::Approx(1.f).epsilon(1e-3));
-        CHECK(white.b == doctest::Approx(1.f).epsilon(1e-3));
-        CHECK(t->evaluate(at_uv(4.f / 64, 1 - 4.f / 64, 1e-4f, 1e-4f)).g == doctest::Approx(0.f));
+        CHECK(white.r == test::Approx(1.f).epsilon(1e-3));
+        CHECK(white.b == test::Approx(1.f).epsilon(1e-3));
+        CHECK(t->evaluate(at_uv(4.f / 64, 1 - 4.f / 64, 1e-4f, 1e-4f)).g == test::Approx(0.f));
         // Footprint of the whole image: the mean, 1/2 (in linear units).
         Rgb avg = t->evaluate(at_uv(0.5f, 0.5f, 1.f, 1.f));
-        CHECK(avg.r == doctest::Approx(0.5f).epsilon(0.02));
+        CHECK(avg.r == test::Approx(0.5f).epsilon(0.02));
         // Many threads at once give the same values as one.
         std::vector<float> out(8 * 200);
         std::vector<std::thread> threads;
@@ -498,8 +499,8 @@ TEST_CASE("float image maps of colour images: RGB average, or alpha when it is n
     TextureSet set(descs);
     TextureEvalContext ctx;
     ctx.uv = {0.5f, 0.5f};
-    CHECK(set.get_float("c")->evaluate(ctx) == doctest::Approx(0.5f).epsilon(1e-3));
-    CHECK(set.get_float("a")->evaluate(ctx) == doctest::Approx(0.25f).epsilon(1e-3));
+    CHECK(set.get_float("c")->evaluate(ctx) == test::Approx(0.5f).epsilon(1e-3));
+    CHECK(set.get_float("a")->evaluate(ctx) == test::Approx(0.25f).epsilon(1e-3));
 
     // An 8-bit RGBA PNG: its alpha is decoded with the image's encoding (sRGB by default) like
     // the colour channels, as pbrt-v4's Image::GetChannel does; "linear" leaves it as stored.
@@ -525,9 +526,9 @@ TEST_CASE("float image maps of colour images: RGB average, or alpha when it is n
         lin.params.params.push_back(e);
         TextureSet set8(std::vector<TextureDesc>{srgb, lin});
         CHECK(set8.get_float("a8")->evaluate(ctx) ==
-              doctest::Approx(srgb_to_linear(128.f / 255.f)).epsilon(2e-3));
+              test::Approx(srgb_to_linear(128.f / 255.f)).epsilon(2e-3));
         CHECK(set8.get_float("a8lin")->evaluate(ctx) ==
-              doctest::Approx(128.f / 255.f).epsilon(2e-3));
+              test::Approx(128.f / 255.f).epsilon(2e-3));
     }
     fs::remove_all(dir);
 }
@@ -557,11 +558,11 @@ TEST_CASE("imagemap: formats pbrt-v4 reads with stb_image are sRGB and lose thei
     };
     TextureSet set(d);
     // The float map reads the RGB average, not the alpha (a PNG would give its alpha).
-    CHECK(set.get_float("f")->evaluate(at_uv(0.5f, 0.5f)) == doctest::Approx(avg).epsilon(2e-3));
+    CHECK(set.get_float("f")->evaluate(at_uv(0.5f, 0.5f)) == test::Approx(avg).epsilon(2e-3));
     // "linear" is ignored with a warning: the texels are decoded as sRGB.
     Rgb c = set.get_spectrum("lin")->evaluate(at_uv(0.5f, 0.5f));
-    CHECK(c.r == doctest::Approx(srgb8(200)).epsilon(2e-3));
-    CHECK(c.b == doctest::Approx(srgb8(50)).epsilon(2e-3));
+    CHECK(c.r == test::Approx(srgb8(200)).epsilon(2e-3));
+    CHECK(c.b == test::Approx(srgb8(50)).epsilon(2e-3));
     CHECK(warning_count() == before + 1);
     CHECK(last_warning().find("pbrt-v4 reads this image format as sRGB") != std::string::npos);
 }

@@ -12,6 +12,7 @@
 #include <string>
 #include <vector>
 
+#include "approx.h"
 #include "render_test_util.h"
 #include "renderer/microfacet.h"
 #include "renderer/whitted_integrator.h"
@@ -196,8 +197,8 @@ TEST_CASE("whitted: diffuse floor under a point light is albedo/pi I cos / r^2")
         Vec3f q = t.first_hit->primary.position;
         CHECK(std::abs(q.y) < 1e-5f);
         CHECK(rgb_near(t.radiance, floor_point_radiance(q, light, I)));
-        CHECK(t.depth == doctest::Approx(length(q - Vec3f(0, 5, 0))).epsilon(1e-5));
-        CHECK(t.albedo.r == doctest::Approx(0.5f));
+        CHECK(t.depth == test::Approx(length(q - Vec3f(0, 5, 0))).epsilon(1e-5));
+        CHECK(t.albedo.r == test::Approx(0.5f));
     }
 }
 
@@ -300,7 +301,7 @@ TEST_CASE("whitted: an invisible (alpha 0) emitter lights as its light sample sa
     for (const auto &r : small_triangle_light("\"float alpha\" 0", false)) {
         const Rgb &got = r.first, &expected = r.second;
         INFO("got " << rgb_str(got) << " expected " << rgb_str(expected));
-        CHECK(got.g == doctest::Approx(expected.g).epsilon(0.05));
+        CHECK(got.g == test::Approx(expected.g).epsilon(0.05));
     }
 }
 
@@ -641,7 +642,7 @@ Shape "trianglemesh" "point3 P" [-5 0 -5  5 0 -5  5 0 5  -5 0 5]
             avg.primary.normal = (pa.normal + pb.normal) * 0.5f;
             avg.primary.uv = (pa.uv + pb.uv) * 0.5f;
             avg.global_color = (a.first_hit->global_color + b.first_hit->global_color) * 0.5f;
-            CHECK(pa.uv.x != doctest::Approx(pb.uv.x));  // the colour really varies
+            CHECK(pa.uv.x != test::Approx(pb.uv.x));  // the colour really varies
             Rgb r = w.shade(avg);
             INFO("shade " << rgb_str(r) << " midpoint " << rgb_str(mid.radiance));
             CHECK(rgb_near(r, mid.radiance, 1e-5f));

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <limits>
 
+#include "approx.h"
 #include "sampling/adaptive_error.h"
 
 using namespace tessera;
@@ -44,15 +45,15 @@ Sample radiance_sample(float r, float g, float b) {
 TEST_CASE("pixel error against hand-computed values") {
     // I = (0.5, 0.25, 0.25), A = (0.7, 0.25, 0.05): |dI| sums to 0.4, sqrt(sum I) = 1.
     CHECK(pixel_error(stats({0.5, 0.25, 0.25}, {0.7, 0.25, 0.05}, 8, 4), 2) ==
-          doctest::Approx(0.4).epsilon(1e-6));
+          test::Approx(0.4).epsilon(1e-6));
     // I = (2, 1, 1), A = (1, 1, 1): 1 / sqrt(4) = 0.5.
-    CHECK(pixel_error(stats({2, 1, 1}, {1, 1, 1}, 4, 2), 4) == doctest::Approx(0.5));
+    CHECK(pixel_error(stats({2, 1, 1}, {1, 1, 1}, 4, 2), 4) == test::Approx(0.5));
     // Equal means: no error.
     CHECK(pixel_error(stats({3, 2, 1}, {3, 2, 1}, 16, 8), 2) == 0.f);
     // Scaling the radiance by k scales the error by sqrt(k).
     float e1 = pixel_error(stats({0.3, 0.2, 0.1}, {0.4, 0.1, 0.1}, 8, 4), 2);
     float e4 = pixel_error(stats({1.2, 0.8, 0.4}, {1.6, 0.4, 0.4}, 8, 4), 2);
-    CHECK(e4 == doctest::Approx(2.0 * e1).epsilon(1e-6));
+    CHECK(e4 == test::Approx(2.0 * e1).epsilon(1e-6));
 }
 
 TEST_CASE("pixel error is infinite without an estimate") {
@@ -72,23 +73,23 @@ TEST_CASE("black and signed pixels") {
     // sqrt(max(0, |1| + |-1|)) -> 2 / sqrt(2).
     float e = pixel_error(stats({0, 0, 0}, {1, -1, 0}, 8, 4), 2);
     CHECK(std::isfinite(e));
-    CHECK(e == doctest::Approx(std::sqrt(2.0)));
+    CHECK(e == test::Approx(std::sqrt(2.0)));
     // ... and it scales as sqrt(k) too.
-    CHECK(pixel_error(stats({0, 0, 0}, {4, -4, 0}, 8, 4), 2) == doctest::Approx(2.0 * e));
+    CHECK(pixel_error(stats({0, 0, 0}, {4, -4, 0}, 8, 4), 2) == test::Approx(2.0 * e));
 }
 
 TEST_CASE("region error: r factor, whole image against half image") {
     ErrorImage img = uniform_image(10, 10, 0.1f);
     const double area = 100;
     // Whole image: r = 1, the mean pixel error.
-    CHECK(region_error(img, {0, 0, 10, 10}, area) == doctest::Approx(0.1));
+    CHECK(region_error(img, {0, 0, 10, 10}, area) == test::Approx(0.1));
     // Half the image: r = sqrt(1/2).
-    CHECK(region_error(img, {0, 0, 5, 10}, area) == doctest::Approx(0.1 * std::sqrt(0.5)));
+    CHECK(region_error(img, {0, 0, 5, 10}, area) == test::Approx(0.1 * std::sqrt(0.5)));
     // A float rectangle of area 12.5 px: r = sqrt(0.125), mean still 0.1.
     CHECK(region_error(img, {1.25, 2.5, 3.75, 7.5}, area) ==
-          doctest::Approx(0.1 * std::sqrt(0.125)));
+          test::Approx(0.1 * std::sqrt(0.125)));
     // Clipped to the image; empty regions have no error.
-    CHECK(region_error(img, {-5, 0, 10, 10}, area) == doctest::Approx(0.1));
+    CHECK(region_error(img, {-5, 0, 10, 10}, area) == test::Approx(0.1));
     CHECK(region_error(img, {3, 3, 3, 8}, area) == 0.0);
 }
 
@@ -98,10 +99,10 @@ TEST_CASE("region error: fractional coverage") {
     const double area = 64;
     // [2.5, 4.25) x [3, 4) covers half of pixel (2, 3): sum 0.5 over N = 1.75 px.
     CHECK(region_error(img, {2.5, 3, 4.25, 4}, area) ==
-          doctest::Approx(0.5 / std::sqrt(1.75 * area)));
+          test::Approx(0.5 / std::sqrt(1.75 * area)));
     // A quarter of it in both axes: coverage 0.5 * 0.25.
     CHECK(region_error(img, {2.5, 3.75, 3.0, 5.0}, area) ==
-          doctest::Approx(0.125 / std::sqrt(0.5 * 1.25 * area)));
+          test::Approx(0.125 / std::sqrt(0.5 * 1.25 * area)));
     // Ending exactly at the pixel's boundary covers none of it.
     CHECK(region_error(img, {0, 0, 2, 8}, area) == 0.0);
 
@@ -127,7 +128,7 @@ TEST_CASE("compute_errors on a film with synthetic samples") {
     REQUIRE(out.width == 4);
     REQUIRE(out.height == 3);
     REQUIRE(out.error.size() == 12);
-    CHECK(out.at(1, 1) == doctest::Approx(1.0 / std::sqrt(2.0)));
+    CHECK(out.at(1, 1) == test::Approx(1.0 / std::sqrt(2.0)));
     CHECK(out.at(1, 1) == pixel_error(film.pixel_stats(1, 1), 2));
     CHECK(out.at(2, 1) == 0.f);
     CHECK(out.at(0, 0) == kInfF);
@@ -143,7 +144,7 @@ TEST_CASE("compute_errors on a film with synthetic samples") {
     compute_errors(film, {-2, -2, 3, 2}, 2, out);
     CHECK(out.error.data() == data);
     CHECK(out.at(3, 2) == 7.f);
-    CHECK(out.at(1, 1) == doctest::Approx(1.0 / std::sqrt(2.0)));
+    CHECK(out.at(1, 1) == test::Approx(1.0 / std::sqrt(2.0)));
 }
 
 TEST_CASE("image error and error summary") {
@@ -154,14 +155,14 @@ TEST_CASE("image error and error summary") {
             for (uint32_t i = 0; i < 4; ++i)
                 film.add_sample(x, y, i, radiance_sample(i & 1 ? 3.f : 1.f, 0.f, 0.f));
     // Every pixel has error 1 / sqrt(2); r = 1: the mean.
-    CHECK(image_error(film, 2) == doctest::Approx(1.0 / std::sqrt(2.0)));
+    CHECK(image_error(film, 2) == test::Approx(1.0 / std::sqrt(2.0)));
     ErrorImage out;
     compute_errors(film, {0, 0, 2, 2}, 2, out);
-    CHECK(image_error(film, 2) == doctest::Approx(region_error(out, {0, 0, 2, 2}, 4.0)));
+    CHECK(image_error(film, 2) == test::Approx(region_error(out, {0, 0, 2, 2}, 4.0)));
 
     out.error[0] = kInfF;
     ErrorSummary s = summarize_errors(out);
     CHECK(s.pixels == 4);
     CHECK(s.unknown_pixels == 1);
-    CHECK(s.mean_finite == doctest::Approx(1.0 / std::sqrt(2.0)));
+    CHECK(s.mean_finite == test::Approx(1.0 / std::sqrt(2.0)));
 }

@@ -7,6 +7,7 @@
 #include <cmath>
 #include <vector>
 
+#include "approx.h"
 #include "chi2.h"
 #include "sampling/distribution.h"
 
@@ -32,15 +33,15 @@ TEST_CASE("PiecewiseConstant1D: integral, pdf and continuous sampling match (chi
     REQUIRE(d.size() == 5);
     CHECK_FALSE(d.is_uniform_fallback());
     // Integral of |f| over [-1, 3]: cell width 0.8, sum 6.5.
-    CHECK(d.integral() == doctest::Approx(6.5 * 0.8).epsilon(1e-6));
+    CHECK(d.integral() == test::Approx(6.5 * 0.8).epsilon(1e-6));
     // pdf = f / integral, integrating to 1.
     double total = 0;
     for (size_t i = 0; i < f.size(); ++i) {
         float x = lo + (float(i) + 0.5f) * 0.8f;
-        CHECK(d.pdf(x) == doctest::Approx(f[i] / 5.2f).epsilon(1e-5));
+        CHECK(d.pdf(x) == test::Approx(f[i] / 5.2f).epsilon(1e-5));
         total += d.pdf(x) * 0.8;
     }
-    CHECK(total == doctest::Approx(1.0).epsilon(1e-5));
+    CHECK(total == test::Approx(1.0).epsilon(1e-5));
     CHECK(d.pdf(lo - 0.1f) == 0.f);
     CHECK(d.pdf(hi + 0.1f) == 0.f);
 
@@ -75,10 +76,10 @@ TEST_CASE("PiecewiseConstant1D: discrete sampling follows the pmf; remapped u is
     PiecewiseConstant1D d(f);
     double sum_pmf = 0;
     for (size_t i = 0; i < f.size(); ++i) {
-        CHECK(d.pmf(i) == doctest::Approx(f[i] / 8.0).epsilon(1e-6));
+        CHECK(d.pmf(i) == test::Approx(f[i] / 8.0).epsilon(1e-6));
         sum_pmf += d.pmf(i);
     }
-    CHECK(sum_pmf == doctest::Approx(1.0).epsilon(1e-6));
+    CHECK(sum_pmf == test::Approx(1.0).epsilon(1e-6));
 
     const int n = 100000, rbins = 20;
     std::vector<double> obs(f.size(), 0.0), exp(f.size(), 0.0);
@@ -113,29 +114,29 @@ TEST_CASE("PiecewiseConstant1D: all-zero, empty, NaN and one-cell functions") {
     PiecewiseConstant1D z(zeros, 2.f, 4.f);
     CHECK(z.is_uniform_fallback());
     CHECK(z.integral() == 0.f);
-    CHECK(z.pdf(3.1f) == doctest::Approx(0.5f));
+    CHECK(z.pdf(3.1f) == test::Approx(0.5f));
     float pdf = 0;
     float x = z.sample_continuous(0.75f, &pdf);
-    CHECK(x == doctest::Approx(3.5f));
-    CHECK(pdf == doctest::Approx(0.5f));
-    CHECK(z.pmf(3) == doctest::Approx(1.f / 7.f));
+    CHECK(x == test::Approx(3.5f));
+    CHECK(pdf == test::Approx(0.5f));
+    CHECK(z.pmf(3) == test::Approx(1.f / 7.f));
 
     PiecewiseConstant1D empty;
     CHECK(empty.size() == 1);
-    CHECK(empty.sample_continuous(0.25f, &pdf) == doctest::Approx(0.25f));
-    CHECK(pdf == doctest::Approx(1.f));
+    CHECK(empty.sample_continuous(0.25f, &pdf) == test::Approx(0.25f));
+    CHECK(pdf == test::Approx(1.f));
 
     std::vector<float> with_nan = {std::nanf(""), 1.f};
     PiecewiseConstant1D n(with_nan);
     CHECK(n.pmf(0) == 0.f);
-    CHECK(n.pmf(1) == doctest::Approx(1.f));
+    CHECK(n.pmf(1) == test::Approx(1.f));
     CHECK(n.sample_continuous(0.f) >= 0.5f);
 
     std::vector<float> one = {5.f};
     PiecewiseConstant1D o(one, 0.f, 2.f);
-    CHECK(o.integral() == doctest::Approx(10.f));
-    CHECK(o.sample_continuous(0.5f, &pdf) == doctest::Approx(1.f));
-    CHECK(pdf == doctest::Approx(0.5f));
+    CHECK(o.integral() == test::Approx(10.f));
+    CHECK(o.sample_continuous(0.5f, &pdf) == test::Approx(1.f));
+    CHECK(pdf == test::Approx(0.5f));
     int k = o.sample_discrete(kOneMinusEpsilon);
     CHECK(k == 0);
 }
@@ -161,17 +162,17 @@ TEST_CASE("PiecewiseConstant2D: pdf integrates to 1 and matches sampling (chi-sq
     double sum_f = 0;
     for (float x : f)
         sum_f += x;
-    CHECK(d.integral() == doctest::Approx(sum_f / (nu * nv)).epsilon(1e-5));
+    CHECK(d.integral() == test::Approx(sum_f / (nu * nv)).epsilon(1e-5));
 
     double total = 0;
     for (int v = 0; v < nv; ++v)
         for (int u = 0; u < nu; ++u) {
             Vec2f p{(u + 0.5f) / nu, (v + 0.5f) / nv};
             float expect = float(f[size_t(v * nu + u)] / (sum_f / (nu * nv)));
-            CHECK(d.pdf(p) == doctest::Approx(expect).epsilon(1e-4));
+            CHECK(d.pdf(p) == test::Approx(expect).epsilon(1e-4));
             total += d.pdf(p) / (nu * nv);
         }
-    CHECK(total == doctest::Approx(1.0).epsilon(1e-5));
+    CHECK(total == test::Approx(1.0).epsilon(1e-5));
 
     // Histogram on a grid twice as fine as the cells: expected counts are exact.
     const int n = 300000, bu = 2 * nu, bv = 2 * nv;
@@ -204,18 +205,18 @@ TEST_CASE("PiecewiseConstant2D: all-zero and 1x1 grids are uniform") {
     CHECK(z.integral() == 0.f);
     float pdf = 0;
     Vec2f p = z.sample({0.3f, 0.8f}, &pdf);
-    CHECK(pdf == doctest::Approx(1.f));
-    CHECK(p.x == doctest::Approx(0.3f));
-    CHECK(p.y == doctest::Approx(0.8f));
-    CHECK(z.pdf({0.9f, 0.1f}) == doctest::Approx(1.f));
+    CHECK(pdf == test::Approx(1.f));
+    CHECK(p.x == test::Approx(0.3f));
+    CHECK(p.y == test::Approx(0.8f));
+    CHECK(z.pdf({0.9f, 0.1f}) == test::Approx(1.f));
 
     std::vector<float> one = {2.5f};
     PiecewiseConstant2D o(one, 1, 1);
-    CHECK(o.integral() == doctest::Approx(2.5f));
+    CHECK(o.integral() == test::Approx(2.5f));
     p = o.sample({0.6f, 0.2f}, &pdf);
-    CHECK(pdf == doctest::Approx(1.f));
-    CHECK(p.x == doctest::Approx(0.6f));
-    CHECK(p.y == doctest::Approx(0.2f));
+    CHECK(pdf == test::Approx(1.f));
+    CHECK(p.x == test::Approx(0.6f));
+    CHECK(p.y == test::Approx(0.2f));
 
     // Uniform fallback passes a chi-square test too.
     const int n = 40000, b = 8;
@@ -235,10 +236,10 @@ TEST_CASE("AliasTable: frequencies follow the weights (chi-square); remapped u i
     REQUIRE(t.size() == w.size());
     double sum_w = 16.5, sum_pmf = 0;
     for (size_t i = 0; i < w.size(); ++i) {
-        CHECK(t.pmf(i) == doctest::Approx(w[i] / sum_w).epsilon(1e-6));
+        CHECK(t.pmf(i) == test::Approx(w[i] / sum_w).epsilon(1e-6));
         sum_pmf += t.pmf(i);
     }
-    CHECK(sum_pmf == doctest::Approx(1.0).epsilon(1e-6));
+    CHECK(sum_pmf == test::Approx(1.0).epsilon(1e-6));
 
     const int n = 200000, rbins = 16;
     std::vector<double> obs(w.size(), 0.0), exp(w.size(), 0.0);
@@ -268,7 +269,7 @@ TEST_CASE("AliasTable: all-zero weights, one entry, empty table") {
     std::vector<float> zeros(4, 0.f);
     AliasTable z(zeros);
     for (size_t i = 0; i < 4; ++i)
-        CHECK(z.pmf(i) == doctest::Approx(0.25f));
+        CHECK(z.pmf(i) == test::Approx(0.25f));
     std::vector<int> hits(4, 0);
     for (int i = 0; i < 400; ++i)
         ++hits[size_t(z.sample((i + 0.5f) / 400.f))];
@@ -280,7 +281,7 @@ TEST_CASE("AliasTable: all-zero weights, one entry, empty table") {
     float pmf = 0, ur = 0;
     CHECK(o.sample(0.7f, &pmf, &ur) == 0);
     CHECK(pmf == 1.f);
-    CHECK(ur == doctest::Approx(0.7f));
+    CHECK(ur == test::Approx(0.7f));
 
     AliasTable e;
     CHECK(e.size() == 0);

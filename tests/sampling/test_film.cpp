@@ -9,6 +9,7 @@
 #include <thread>
 #include <vector>
 
+#include "approx.h"
 #include "sampling/film.h"
 
 using namespace tessera;
@@ -70,15 +71,15 @@ TEST_CASE("AOVs average over hits only") {
     film.add_sample(0, 0, 2, hit_sample(Rgb(1.f), Rgb(0.4f, 0.8f, 0.2f), {0, 1, 0}, 4.f));
     CHECK(film.pixel_stats(0, 0).hits == 2);
     std::vector<float> albedo = film.albedo_rgb(), normal = film.normal_xyz(), depth = film.depth();
-    CHECK(albedo[0] == doctest::Approx(0.3f));
-    CHECK(albedo[1] == doctest::Approx(0.6f));
-    CHECK(albedo[2] == doctest::Approx(0.4f));
+    CHECK(albedo[0] == test::Approx(0.3f));
+    CHECK(albedo[1] == test::Approx(0.6f));
+    CHECK(albedo[2] == test::Approx(0.4f));
     CHECK(normal[0] == 0.f);
-    CHECK(normal[1] == doctest::Approx(0.5f));
-    CHECK(normal[2] == doctest::Approx(0.5f));
-    CHECK(depth[0] == doctest::Approx(3.f));
+    CHECK(normal[1] == test::Approx(0.5f));
+    CHECK(normal[2] == test::Approx(0.5f));
+    CHECK(depth[0] == test::Approx(3.f));
     // The escaped sample still counts for the beauty: (1 + 5 + 1) / 3.
-    CHECK(film.beauty_rgb()[0] == doctest::Approx(7.f / 3.f));
+    CHECK(film.beauty_rgb()[0] == test::Approx(7.f / 3.f));
 
     Film empty(1, 1, AovSet::all());
     empty.add_sample(0, 0, 0, radiance_sample(1, 1, 1));

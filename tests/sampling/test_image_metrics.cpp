@@ -4,6 +4,7 @@
 #include <cmath>
 #include <stdexcept>
 
+#include "approx.h"
 #include "sampling/image_metrics.h"
 
 using namespace tessera::sampling;
@@ -24,43 +25,43 @@ TEST_CASE("MSE, RMSE and PSNR by hand") {
     RgbImage t = test_image(), r = ref_image();
     // Squared errors: R {0, 0.01}, G {1, 0}, B {0, 0.04}.
     ChannelMetric m = mse(t, r);
-    CHECK(m.channel[0] == doctest::Approx(0.005));
-    CHECK(m.channel[1] == doctest::Approx(0.5));
-    CHECK(m.channel[2] == doctest::Approx(0.02));
-    CHECK(m.total == doctest::Approx((0.005 + 0.5 + 0.02) / 3));
+    CHECK(m.channel[0] == tessera::test::Approx(0.005));
+    CHECK(m.channel[1] == tessera::test::Approx(0.5));
+    CHECK(m.channel[2] == tessera::test::Approx(0.02));
+    CHECK(m.total == tessera::test::Approx((0.005 + 0.5 + 0.02) / 3));
 
     ChannelMetric e = rmse(t, r);
-    CHECK(e.channel[1] == doctest::Approx(std::sqrt(0.5)));
-    CHECK(e.total == doctest::Approx(std::sqrt(0.525 / 3)));
+    CHECK(e.channel[1] == tessera::test::Approx(std::sqrt(0.5)));
+    CHECK(e.total == tessera::test::Approx(std::sqrt(0.525 / 3)));
 
     ChannelMetric p = psnr(t, r);
-    CHECK(p.channel[0] == doctest::Approx(10 * std::log10(1 / 0.005)));
-    CHECK(p.total == doctest::Approx(10 * std::log10(3 / 0.525)));
+    CHECK(p.channel[0] == tessera::test::Approx(10 * std::log10(1 / 0.005)));
+    CHECK(p.total == tessera::test::Approx(10 * std::log10(3 / 0.525)));
     ChannelMetric p4 = psnr(t, r, 4.0);
-    CHECK(p4.channel[2] == doctest::Approx(10 * std::log10(16 / 0.02)));
+    CHECK(p4.channel[2] == tessera::test::Approx(10 * std::log10(16 / 0.02)));
     CHECK(std::isinf(psnr(r, r).total));
 }
 
 TEST_CASE("relMSE uses (v - ref)^2 / (ref^2 + 0.01)") {
     ChannelMetric m = rel_mse(test_image(), ref_image());
     // R: {0, 0.01 / 0.01} -> 0.5;  G: {1 / 0.01, 0} -> 50;  B: {0, 0.04 / 0.26} -> 0.077
-    CHECK(m.channel[0] == doctest::Approx(0.5));
-    CHECK(m.channel[1] == doctest::Approx(50.0));
-    CHECK(m.channel[2] == doctest::Approx(0.5 * 0.04 / 0.26));
-    CHECK(m.total == doctest::Approx((0.5 + 50.0 + 0.02 / 0.26) / 3));
+    CHECK(m.channel[0] == tessera::test::Approx(0.5));
+    CHECK(m.channel[1] == tessera::test::Approx(50.0));
+    CHECK(m.channel[2] == tessera::test::Approx(0.5 * 0.04 / 0.26));
+    CHECK(m.total == tessera::test::Approx((0.5 + 50.0 + 0.02 / 0.26) / 3));
 }
 
 TEST_CASE("channel means and compare_images") {
     std::array<double, 3> mt = channel_means(test_image());
-    CHECK(mt[0] == doctest::Approx(0.3));
-    CHECK(mt[1] == doctest::Approx(0.6));
-    CHECK(mt[2] == doctest::Approx(0.15));
+    CHECK(mt[0] == tessera::test::Approx(0.3));
+    CHECK(mt[1] == tessera::test::Approx(0.6));
+    CHECK(mt[2] == tessera::test::Approx(0.15));
     ImageComparison c = compare_images(test_image(), ref_image());
-    CHECK(c.mse.channel[1] == doctest::Approx(0.5));
-    CHECK(c.rel_mse.channel[1] == doctest::Approx(50.0));
-    CHECK(c.mean_ref[2] == doctest::Approx(0.25));
-    CHECK(c.mean_test[0] == doctest::Approx(0.3));
-    CHECK(c.psnr.channel[1] == doctest::Approx(10 * std::log10(2.0)));
+    CHECK(c.mse.channel[1] == tessera::test::Approx(0.5));
+    CHECK(c.rel_mse.channel[1] == tessera::test::Approx(50.0));
+    CHECK(c.mean_ref[2] == tessera::test::Approx(0.25));
+    CHECK(c.mean_test[0] == tessera::test::Approx(0.3));
+    CHECK(c.psnr.channel[1] == tessera::test::Approx(10 * std::log10(2.0)));
 }
 
 TEST_CASE("size mismatch and malformed images throw") {
@@ -83,17 +84,17 @@ TEST_CASE("box downsample by an integer factor") {
     RgbImage d = box_downsample(img, 2);
     REQUIRE(d.width == 2);
     REQUIRE(d.height == 1);
-    CHECK(d.at(0, 0, 0) == doctest::Approx((0 + 1 + 4 + 5) / 4.0));
-    CHECK(d.at(1, 0, 0) == doctest::Approx((2 + 3 + 6 + 7) / 4.0));
+    CHECK(d.at(0, 0, 0) == tessera::test::Approx((0 + 1 + 4 + 5) / 4.0));
+    CHECK(d.at(1, 0, 0) == tessera::test::Approx((2 + 3 + 6 + 7) / 4.0));
     CHECK(d.at(1, 0, 1) == 1.f);
-    CHECK(d.at(0, 0, 2) == doctest::Approx(0.5));
+    CHECK(d.at(0, 0, 2) == tessera::test::Approx(0.5));
     // Factor 3: 2x1 output, the second block is partial (one column of two rows).
     RgbImage e = box_downsample(img, 3);
     REQUIRE(e.width == 2);
     REQUIRE(e.height == 1);
-    CHECK(e.at(0, 0, 0) == doctest::Approx((0 + 1 + 2 + 4 + 5 + 6) / 6.0));
-    CHECK(e.at(1, 0, 0) == doctest::Approx((3 + 7) / 2.0));
+    CHECK(e.at(0, 0, 0) == tessera::test::Approx((0 + 1 + 2 + 4 + 5 + 6) / 6.0));
+    CHECK(e.at(1, 0, 0) == tessera::test::Approx((3 + 7) / 2.0));
     // Factor 1 is the identity; the mean is preserved by exact-multiple downsampling.
     CHECK(box_downsample(img, 1).data == img.data);
-    CHECK(channel_means(d)[0] == doctest::Approx(channel_means(img)[0]));
+    CHECK(channel_means(d)[0] == tessera::test::Approx(channel_means(img)[0]));
 }

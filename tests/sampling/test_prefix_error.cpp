@@ -9,6 +9,7 @@
 #include <limits>
 #include <vector>
 
+#include "approx.h"
 #include "sampling/adaptive_error.h"
 #include "sampling/film.h"
 #include "sampling/sequence.h"
@@ -62,7 +63,7 @@ TEST_CASE("prefix snapshots: the film keeps the mean of the first 2^(k-1) sample
         CAPTURE(taken);
         REQUIRE(st.has_prefix);
         CHECK(st.prefix_accepted == accepted);
-        CHECK(st.prefix_mean[0] == doctest::Approx(accepted ? sum / accepted : 0.0));
+        CHECK(st.prefix_mean[0] == test::Approx(accepted ? sum / accepted : 0.0));
     }
     film.clear();
     CHECK(film.pixel_stats(0, 0).prefix_accepted == 0);
@@ -75,9 +76,9 @@ TEST_CASE("prefix error: hand-computed values, the sqrt(m / (n - m)) weight, no 
     st.prefix_mean = {1, 1, 1};
     st.taken = st.accepted = 8;
     st.prefix_accepted = 4;  // m = n/2: weight 1; |dI| = 1, sqrt(sum I) = 2
-    CHECK(pixel_error(st, 4) == doctest::Approx(0.5));
+    CHECK(pixel_error(st, 4) == test::Approx(0.5));
     st.taken = st.accepted = 12;  // m = n/3: weight sqrt(4/8)
-    CHECK(pixel_error(st, 4) == doctest::Approx(0.5 * std::sqrt(0.5)));
+    CHECK(pixel_error(st, 4) == test::Approx(0.5 * std::sqrt(0.5)));
     // The half buffer is not consulted (empty here, which alone would mean no estimate).
     CHECK(st.half_accepted == 0);
     st.prefix_accepted = 0;  // nothing accepted in the prefix
@@ -141,6 +142,6 @@ TEST_CASE("prefix error and half buffer agree on independent noise, at any count
             e_prefix += pixel_error(prefix.pixel_stats(px, 0), 4);
         }
         // 400 folded normals: each mean within about 4% (1 sd); 15% is over 3 sd of the ratio.
-        CHECK(e_prefix / e_half == doctest::Approx(1.0).epsilon(0.15));
+        CHECK(e_prefix / e_half == test::Approx(1.0).epsilon(0.15));
     }
 }

@@ -11,6 +11,7 @@
 #include <utility>
 #include <vector>
 
+#include "approx.h"
 #include "sampling/adaptive_error.h"
 #include "sampling/region_tree.h"
 
@@ -107,7 +108,7 @@ void check_partition(const RegionTree &t) {
     double sum = 0;
     for (const auto &l : ls)
         sum += area(l.bounds);
-    CHECK(sum == doctest::Approx(area(root)).epsilon(1e-12));
+    CHECK(sum == tessera::test::Approx(area(root)).epsilon(1e-12));
     for (size_t i = 0; i < ls.size(); ++i)
         for (size_t j = i + 1; j < ls.size(); ++j)
             CHECK(overlap(ls[i].bounds, ls[j].bounds) < 1e-9);
@@ -155,7 +156,7 @@ TEST_CASE("uniform low error: one complete root") {
     CHECK(t.rebuild(img, p) == 1);
     CHECK(t.complete());
     // e_b = e * sqrt(A_b / A_image).
-    CHECK(t.root_error() == doctest::Approx(0.001 * std::sqrt(40.0 * 32 / (64 * 48))));
+    CHECK(t.root_error() == tessera::test::Approx(0.001 * std::sqrt(40.0 * 32 / (64 * 48))));
     CHECK(!t.pixel_active(0, 0));
     std::vector<PixelBounds> rects{{1, 1, 2, 2}};
     t.active_rects({0, 0, 8, 8}, rects);
@@ -180,8 +181,9 @@ TEST_CASE("random error images: leaves partition the root; errors match the refe
         check_partition(t);
         // The summed-area table integral agrees with the O(area) reference on every node.
         for (const auto &node : t.nodes())
-            CHECK(node.error ==
-                  doctest::Approx(region_error(img, node.bounds, double(w) * h)).epsilon(1e-9));
+            CHECK(node.error == tessera::test::Approx(region_error(img, node.bounds,
+                                                                   double(w) * h))
+                                    .epsilon(1e-9));
         // Completion is judged on the pixels inside the quadrant: their mean error at the whole
         // region's scale (the margin belongs to the neighbour's tree). A leaf wholly in the
         // margin is complete.
@@ -195,7 +197,7 @@ TEST_CASE("random error images: leaves partition the root; errors match the refe
             if (any_own)
                 expect = integral(img, own, double(w) * h) / area(own) *
                          std::sqrt(area(b) / (double(w) * h));
-            CHECK(node.own_error == doctest::Approx(expect).epsilon(1e-9));
+            CHECK(node.own_error == tessera::test::Approx(expect).epsilon(1e-9));
             if (node.is_leaf()) {
                 CHECK(node.complete == (node.own_error < p.target));
                 margin_only += !any_own;
@@ -242,7 +244,7 @@ TEST_CASE("splits are floating point and divide the error equally") {
         if (ea > p.min_extent + 1e-9 && eb > p.min_extent + 1e-9) {
             ++checked;
             const double ia = integral(img, a, double(w) * h), ib = integral(img, b, double(w) * h);
-            CHECK(ia == doctest::Approx(ib).epsilon(1e-6));
+            CHECK(ia == tessera::test::Approx(ib).epsilon(1e-6));
         }
     }
     MESSAGE(splits << " splits, " << fractional << " at non-integer positions, " << checked
@@ -465,12 +467,12 @@ void check_same_tree(const RegionTree &a, const RegionTree &b) {
     REQUIRE(a.nodes().size() == b.nodes().size());
     for (size_t i = 0; i < a.nodes().size(); ++i) {
         const auto &na = a.nodes()[i], &nb = b.nodes()[i];
-        CHECK(na.bounds.x0 == doctest::Approx(nb.bounds.x0).epsilon(1e-9));
-        CHECK(na.bounds.x1 == doctest::Approx(nb.bounds.x1).epsilon(1e-9));
-        CHECK(na.bounds.y0 == doctest::Approx(nb.bounds.y0).epsilon(1e-9));
-        CHECK(na.bounds.y1 == doctest::Approx(nb.bounds.y1).epsilon(1e-9));
+        CHECK(na.bounds.x0 == tessera::test::Approx(nb.bounds.x0).epsilon(1e-9));
+        CHECK(na.bounds.x1 == tessera::test::Approx(nb.bounds.x1).epsilon(1e-9));
+        CHECK(na.bounds.y0 == tessera::test::Approx(nb.bounds.y0).epsilon(1e-9));
+        CHECK(na.bounds.y1 == tessera::test::Approx(nb.bounds.y1).epsilon(1e-9));
         if (std::isfinite(na.error))
-            CHECK(na.error == doctest::Approx(nb.error).epsilon(1e-9));
+            CHECK(na.error == tessera::test::Approx(nb.error).epsilon(1e-9));
         else
             CHECK_FALSE(std::isfinite(nb.error));
         CHECK(na.complete == nb.complete);
@@ -647,7 +649,7 @@ TEST_CASE("extreme sizes and error magnitudes keep valid floating-point splits")
             // Leaves partition the root (area sum; pairwise overlap only for small trees).
             double sum = 0;
             for (const auto &l : leaves(t)) sum += area(l.bounds);
-            CHECK(sum == doctest::Approx(32776.0 * 4.0).epsilon(1e-12));
+            CHECK(sum == tessera::test::Approx(32776.0 * 4.0).epsilon(1e-12));
             if (nodes < 800) check_partition(t);
             // The columns with the error stay open.
             CHECK(t.pixel_active(30001, 1));

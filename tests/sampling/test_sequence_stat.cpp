@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "approx.h"
 #include "sampling/sequence.h"
 #include "chi2.h"
 #include "test_helpers.h"
@@ -54,8 +55,8 @@ bool is_02_net(const std::vector<Vec2f> &pts, int m) {
 
 TEST_CASE("chi-square p-value sanity") {
     // 2 degrees of freedom: P(X >= x) = exp(-x/2); 99 degrees: the 99% quantile is 134.642.
-    CHECK(tessera::test::chi2_p_value(3.0, 2) == doctest::Approx(std::exp(-1.5)).epsilon(1e-10));
-    CHECK(tessera::test::chi2_p_value(134.642, 99) == doctest::Approx(0.01).epsilon(1e-3));
+    CHECK(tessera::test::chi2_p_value(3.0, 2) == test::Approx(std::exp(-1.5)).epsilon(1e-10));
+    CHECK(tessera::test::chi2_p_value(134.642, 99) == test::Approx(0.01).epsilon(1e-3));
 }
 
 TEST_CASE("1D values are uniform across pixels (chi-square)") {

@@ -8,6 +8,7 @@
 #include <cmath>
 #include <vector>
 
+#include "approx.h"
 #include "chi2.h"
 #include "sampling/distribution.h"
 #include "sampling/warp.h"
@@ -42,7 +43,7 @@ TEST_CASE("warp: cosine-weighted hemisphere") {
         [](Vec2f u, float) -> std::optional<Vec3f> { return square_to_cosine_hemisphere(u); },
         [](Vec3f w) { return w.z > 0 ? double(cosine_hemisphere_pdf(w.z)) : 0.0; }, options(21));
     CHECK_MESSAGE(r.passed, r.message);
-    CHECK(r.pdf_integral == doctest::Approx(1.0).epsilon(2e-3));
+    CHECK(r.pdf_integral == test::Approx(1.0).epsilon(2e-3));
 }
 
 TEST_CASE("warp: uniform sphere and hemisphere") {
@@ -70,7 +71,7 @@ TEST_CASE("warp: uniform cone, wide and narrow") {
             },
             [&](Vec3f w) { return w.z >= cos_max ? double(uniform_cone_pdf(cos_max)) : 0.0; }, o);
         CHECK_MESSAGE(r.passed, r.message);
-        CHECK(r.pdf_integral == doctest::Approx(1.0).epsilon(5e-3));
+        CHECK(r.pdf_integral == test::Approx(1.0).epsilon(5e-3));
     }
 }
 

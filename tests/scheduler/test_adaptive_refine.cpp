@@ -9,6 +9,7 @@
 #include <cstring>
 #include <vector>
 
+#include "approx.h"
 #include "sampling/film.h"
 #include "scheduler/adaptive_scheduler.h"
 #include "synthetic_sources.h"
@@ -105,7 +106,7 @@ TEST_CASE("refine: an spp budget does not stop at the first convergence; the tar
         CHECK(st.refinements >= 1);
         CHECK(st.final_error_target < o.error_target);
         CHECK(st.final_error_target ==
-              doctest::Approx(o.error_target * std::pow(o.refine_factor, st.refinements)));
+              test::Approx(o.error_target * std::pow(o.refine_factor, st.refinements)));
         CHECK(st.samples > ps.samples);
         CHECK(st.passes > ps.passes);
         CHECK(st.error_estimate < ps.error_estimate);

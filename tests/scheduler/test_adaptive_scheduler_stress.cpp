@@ -17,6 +17,7 @@
 #include <string>
 #include <vector>
 
+#include "approx.h"
 #include "sampling/film.h"
 #include "scheduler/adaptive_scheduler.h"
 #include "synthetic_sources.h"
@@ -312,7 +313,7 @@ TEST_CASE("stress: a late firefly reopens completed regions of its quadrant") {
                                  << fire_spp / 256 << " (without: " << calm_spp / 256 << ")");
         if (det) {
             CHECK(calm_reopened == 0);
-            CHECK(calm_spp == doctest::Approx(16.0 * 256));
+            CHECK(calm_spp == test::Approx(16.0 * 256));
         }
         // Barrier-free, a busy machine may rebuild the quadrant's tree only after the firefly is
         // already in the film, so the flat pixels never close before it and cannot "reopen";

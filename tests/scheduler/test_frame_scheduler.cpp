@@ -9,6 +9,7 @@
 #include <tuple>
 #include <utility>
 
+#include "approx.h"
 #include "sampling/pixel_sampler.h"
 #include "scheduler/frame_scheduler.h"
 #include "plugin_test_util.h"
@@ -180,7 +181,7 @@ TEST_CASE("plugin registry: names, kinds, parameter parsing and errors") {
 
     PluginSpec a = parse_plugin_spec("adaptive:min_spp=8,error=0.002");  // '_' == '-'
     CHECK(a.params.get("min-spp") == 8);
-    CHECK(a.params.get("error") == doctest::Approx(0.002));
+    CHECK(a.params.get("error") == test::Approx(0.002));
     CHECK(a.params.get("split-factor") == 256);  // default filled in
 
     auto msg = [](const char *text) { return test::spec_error(text); };
@@ -225,7 +226,7 @@ TEST_CASE("fixed: K samples per pixel, jittered grid for square K, colour = samp
         // Away from the disc's edge every sample has the same colour up to the linear shading.
         Rgb bg = r.color[0];
         Rgb gt = src.ground_truth(0, 0);
-        CHECK(bg.r == doctest::Approx(gt.r).epsilon(1e-4));
+        CHECK(bg.r == test::Approx(gt.r).epsilon(1e-4));
         // Error against the exact pixel mean shrinks with K (stratification).
         double err = 0;
         for (uint32_t y = 0; y < 16; ++y)

@@ -18,6 +18,7 @@
 #include <utility>
 #include <vector>
 
+#include "approx.h"
 #include "sampling/pixel_sampler.h"
 #include "scheduler/frame_scheduler.h"
 #include "plugin_test_util.h"
@@ -282,10 +283,10 @@ TEST_CASE("pattern: positions, sharing (each lattice point traced once), mirrori
             double rays = 0;
             for (float v : r.rays)
                 rays += v;
-            CHECK(rays == doctest::Approx(double(r.rays_total)).epsilon(1e-6));
+            CHECK(rays == test::Approx(double(r.rays_total)).epsilon(1e-6));
             if (w == 16) {
                 // Interior pixels: exactly the nominal 1.25 / 2 rays.
-                CHECK(r.rays[5 * w + 6] == doctest::Approx(quad ? 2.0 : 1.25));
+                CHECK(r.rays[5 * w + 6] == test::Approx(quad ? 2.0 : 1.25));
                 CHECK(double(log.size()) ==
                       (quad ? 2.0 * w * h + w + h : 1.25 * w * h + w / 2 + h / 2 + 1));
                 // Packets are full except at the end of a tile's streams.
@@ -335,9 +336,9 @@ TEST_CASE("counts with the synthetic attribute source; a flat image gets no extr
                 CHECK(active->data[i] == 0.f);
                 CHECK(gradient->data[i] == 0.f);
                 // Equal weights: a constant image resolves to the constant.
-                CHECK(r.color[i].r == doctest::Approx(0.2f).epsilon(1e-6));
-                CHECK(r.color[i].g == doctest::Approx(0.3f).epsilon(1e-6));
-                CHECK(r.color[i].b == doctest::Approx(0.4f).epsilon(1e-6));
+                CHECK(r.color[i].r == test::Approx(0.2f).epsilon(1e-6));
+                CHECK(r.color[i].g == test::Approx(0.3f).epsilon(1e-6));
+                CHECK(r.color[i].b == test::Approx(0.4f).epsilon(1e-6));
             }
         }
     }
@@ -379,13 +380,13 @@ TEST_CASE("a vertical edge activates exactly the pixels whose pattern straddles 
                     const double base = (quad ? 2.0 : 1.25) * 2.0;
                     if (x > 0 && y > 0 && x + 1 < w && y + 1 < h)
                         CHECK(r.rays[i] ==
-                              doctest::Approx(base + (straddles ? 2.0 * (quad ? 16 : 4) : 0)));
+                              test::Approx(base + (straddles ? 2.0 * (quad ? 16 : 4) : 0)));
                 }
             CHECK(n_active == h);  // one column
             const uint64_t pattern = quad ? quad_count(w, h) : tri_count(w, h);
             CHECK(src.total_count() == pattern + uint64_t(n_active) * (quad ? 16 : 4));
             CHECK(r.samples == src.total_count());
-            CHECK(r.active_fraction == doctest::Approx(double(n_active) / (w * h)));
+            CHECK(r.active_fraction == test::Approx(double(n_active) / (w * h)));
         }
 }
 
@@ -461,9 +462,9 @@ TEST_CASE("weights: an active pixel is the equal-weight mean of its pattern and 
                         count += 1.f;
                     }
                     const Rgb e = sum / count;
-                    CHECK(r.color[i].r == doctest::Approx(e.r).epsilon(1e-5));
-                    CHECK(r.color[i].g == doctest::Approx(e.g).epsilon(1e-5));
-                    CHECK(r.color[i].b == doctest::Approx(e.b).epsilon(1e-5));
+                    CHECK(r.color[i].r == test::Approx(e.r).epsilon(1e-5));
+                    CHECK(r.color[i].g == test::Approx(e.g).epsilon(1e-5));
+                    CHECK(r.color[i].b == test::Approx(e.b).epsilon(1e-5));
                     ++checked;
                 }
             CHECK(checked == w * h);
@@ -542,7 +543,7 @@ TEST_CASE("prev_threshold: the previous frame's average is the threshold, in two
         CHECK(render(*ref, b, rb).stage_names.size() == 3);
         const sampling::FrameLayer *rb_active = layer(rb, "active");
         REQUIRE(rb_active);
-        CHECK(rb.active_fraction == doctest::Approx(1.0 / w));  // column 10
+        CHECK(rb.active_fraction == test::Approx(1.0 / w));  // column 10
 
         auto p = make(std::string(name) + ":prev_threshold=1");
         FrameResult r1, r2, r3;
@@ -602,7 +603,7 @@ TEST_CASE("texture_average: texture detail alone triggers nothing, object edges 
                 CHECK(act->data[size_t(y) * w + x] == ((in && out) ? 1.f : 0.f));
                 n += (in && out) ? 1 : 0;
             }
-        CHECK(ra.active_fraction == doctest::Approx(double(n) / (w * h)));
+        CHECK(ra.active_fraction == test::Approx(double(n) / (w * h)));
         // Without averaging the checker squares' edges are supersampled too.
         CHECK(rp.active_fraction > 2 * ra.active_fraction);
     }
@@ -623,7 +624,7 @@ TEST_CASE("non-finite samples are dropped and counted") {
     CHECK(r.active_fraction == 0.0);
     for (const Rgb &c : r.color) {
         CHECK(c.is_finite());
-        CHECK(c.r == doctest::Approx(0.25f));
+        CHECK(c.r == test::Approx(0.25f));
     }
 }
 

@@ -15,6 +15,7 @@
 #include <string>
 #include <vector>
 
+#include "approx.h"
 #include "sampling/pixel_sampler.h"
 #include "scheduler/frame_scheduler.h"
 #include "scheduler/synthetic_attribute_source.h"
@@ -138,7 +139,7 @@ TEST_CASE("jin: a vertical object edge activates exactly the subpixels beside it
     CHECK(r.samples == 32 * 16 + 4 * 64);
     CHECK(r.rays_total == 2 * r.samples);
     CHECK(r.active_unit == "subpixels");
-    CHECK(r.active_fraction == doctest::Approx(64.0 / (4 * 32 * 16)));
+    CHECK(r.active_fraction == test::Approx(64.0 / (4 * 32 * 16)));
     // Edge at a quarter-pixel cell boundary: the stratified samples resolve it exactly, so
     // column 15 is 1/4 object and 3/4 background, as (4 - 2)/4 centre + 8 x 1/16 samples gives.
     check_colours(r, src, 1e-5f);
@@ -232,7 +233,7 @@ TEST_CASE("jin: a one-pixel object activates the 3x3 pattern of Fig. 4; weights 
     CHECK(at(r, "active_mask", 11, 8) == kLeft);
     CHECK(at(r, "active_mask", 10, 7) == 12);  // lower subpixels
     CHECK(at(r, "active_mask", 9, 7) == 8);    // only the lower right one
-    CHECK(r.active_fraction == doctest::Approx(16.0 / (4 * 24 * 16)));
+    CHECK(r.active_fraction == test::Approx(16.0 / (4 * 24 * 16)));
     CHECK(src.count(10, 8) == 17);
     CHECK(src.count(9, 7) == 5);
 
@@ -249,7 +250,7 @@ TEST_CASE("jin: a one-pixel object activates the 3x3 pattern of Fig. 4; weights 
     CHECK(cells.size() == 16);  // stratified: one sample in each quarter-pixel cell
     const Rgb got = r.color[8 * 24 + 10];
     for (int l = 0; l < 3; ++l)
-        CHECK(got[l] == doctest::Approx(mean[l]).epsilon(1e-6));
+        CHECK(got[l] == test::Approx(mean[l]).epsilon(1e-6));
     CHECK(got.r < 50.f);  // the centre colour does not leak in
     // A pixel with one active subpixel: 3/4 centre + the subpixel's 4 samples / 16.
     const auto s97 = extra_samples_of(rec, 9, 7);
@@ -257,7 +258,7 @@ TEST_CASE("jin: a one-pixel object activates the 3x3 pattern of Fig. 4; weights 
     Rgb expect97 = src.evaluate(CameraSample{9, 7, 0.5f, 0.5f, 0}).radiance * 0.75f;
     for (const CameraSample &c : s97)
         expect97 += src.evaluate(c).radiance * (1.f / 16.f);
-    CHECK(r.color[7 * 24 + 9].g == doctest::Approx(expect97.g).epsilon(1e-6));
+    CHECK(r.color[7 * 24 + 9].g == test::Approx(expect97.g).epsilon(1e-6));
 }
 
 TEST_CASE("jin: a shadow-only edge is caught by the shadow count threshold") {
@@ -370,7 +371,7 @@ TEST_CASE("jin: bilinear filtering of inactive subpixels (section 6 option)") {
         (centre(x - 1, y - 1) + centre(x + 1, y - 1) + centre(x - 1, y + 1) +
          centre(x + 1, y + 1)) *
             (1.f / 64.f);
-    CHECK(r.color[size_t(y) * 16 + x].r == doctest::Approx(expect.r).epsilon(1e-6));
+    CHECK(r.color[size_t(y) * 16 + x].r == test::Approx(expect.r).epsilon(1e-6));
     // On linear shading it is exact inside the image.
     SyntheticAttributeSource ramp(16, 16);
     ramp.shapes[0].color_dx = Rgb(0.01f, 0.f, 0.005f);
@@ -378,7 +379,7 @@ TEST_CASE("jin: bilinear filtering of inactive subpixels (section 6 option)") {
     const FrameResult lr = render(ramp, "jin:bilinear=1");
     for (uint32_t py = 1; py < 15; ++py)
         for (uint32_t px = 1; px < 15; ++px)
-            CHECK(lr.color[py * 16 + px].g == doctest::Approx(ramp.ground_truth(px, py).g));
+            CHECK(lr.color[py * 16 + px].g == test::Approx(ramp.ground_truth(px, py).g));
 }
 
 TEST_CASE("jin: active subpixels are packed per tile before the extra sampling") {

@@ -25,6 +25,7 @@
 #include <string>
 #include <vector>
 
+#include "approx.h"
 #include "sampling/pixel_sampler.h"
 #include "scheduler/frame_scheduler.h"
 #include "plugin_test_util.h"
@@ -138,10 +139,10 @@ TEST_CASE("kim: parameters, the paper's defaults and cross-parameter checks") {
     PluginSpec spec = parse_plugin_spec("kim");
     REQUIRE(spec.info != nullptr);
     CHECK(spec.info->kind == PluginKind::Frame);
-    CHECK(spec.params.get("t-pos") == doctest::Approx(0.03));  // Sec. 6
-    CHECK(spec.params.get("t-norm") == doctest::Approx(0.9));
-    CHECK(spec.params.get("t-tex") == doctest::Approx(0.3));
-    CHECK(spec.params.get("t-gcol") == doctest::Approx(0.15));
+    CHECK(spec.params.get("t-pos") == test::Approx(0.03));  // Sec. 6
+    CHECK(spec.params.get("t-norm") == test::Approx(0.9));
+    CHECK(spec.params.get("t-tex") == test::Approx(0.3));
+    CHECK(spec.params.get("t-gcol") == test::Approx(0.15));
     CHECK(spec.params.get_int("block") == 2);  // Fig. 2
     CHECK(spec.params.get_int("ss") == 1);
     CHECK(spec.params.get_int("postcorrect") == 4);  // Sec. 5: four scans
@@ -152,8 +153,8 @@ TEST_CASE("kim: parameters, the paper's defaults and cross-parameter checks") {
         parse_plugin_spec("kim:block=4,postcorrect=2,t_pos=0.05,scene-size=12.5,pc_shadow=0,ss=2");
     CHECK(spec.params.get_int("block") == 4);
     CHECK(spec.params.get_int("postcorrect") == 2);
-    CHECK(spec.params.get("t-pos") == doctest::Approx(0.05));
-    CHECK(spec.params.get("scene_size") == doctest::Approx(12.5));
+    CHECK(spec.params.get("t-pos") == test::Approx(0.05));
+    CHECK(spec.params.get("scene_size") == test::Approx(12.5));
     CHECK_FALSE(spec.params.get_bool("pc-shadow"));
     CHECK(spec.params.get_int("ss") == 2);
     CHECK(spec.info->make(spec.params) != nullptr);
@@ -186,7 +187,7 @@ TEST_CASE("kim: interpolation is exact on a plane; only B pixels are traced") {
         // References up to 8 pixels apart: a scene of 1000 pixels gives T_pos = 30 pixels.
         FrameResult r = render_kim(*src, "scene-size=1000,block=" + std::to_string(block));
         const uint32_t n_base = (32 / block) * (32 / block);
-        CHECK(r.active_fraction == doctest::Approx(1.0 / double(block * block)).epsilon(1e-12));
+        CHECK(r.active_fraction == test::Approx(1.0 / double(block * block)).epsilon(1e-12));
         CHECK(r.samples == n_base);
         CHECK(r.shaded == 32 * 32 - n_base);
         CHECK(src->total_count() == n_base);
@@ -249,7 +250,7 @@ TEST_CASE("kim: an object edge forces tracing of exactly the A pixels next to it
                 CHECK(at(r, "check", x, y) == (y == 11 ? 1.f : 0.f));
                 CHECK(at(r, "class", x, y) == (y % 2 ? 2.f : (x % 2 ? 1.f : 0.f)));
             }
-        CHECK(r.active_fraction == doctest::Approx((16.0 * 16 + 32) / (32.0 * 32)));
+        CHECK(r.active_fraction == test::Approx((16.0 * 16 + 32) / (32.0 * 32)));
         // Post-correction then revisits the traced row: its interpolated neighbours of a
         // different object (the A1 pixels of row 10) are re-traced, without a change.
         src.reset_counts();
@@ -259,7 +260,7 @@ TEST_CASE("kim: an object edge forces tracing of exactly the A pixels next to it
             CHECK(at(r, "postcorrected", x, 12) == 0.f);  // same object as row 11
             CHECK(src.count(x, 10) == 1);
         }
-        CHECK(r.active_fraction == doctest::Approx((16.0 * 16 + 32 + 16) / (32.0 * 32)));
+        CHECK(r.active_fraction == test::Approx((16.0 * 16 + 32 + 16) / (32.0 * 32)));
     }
     SUBCASE("vertical edge, block 4: the midpoint levels recurse") {
         SyntheticAttributeSource src(32, 32);
@@ -299,7 +300,7 @@ TEST_CASE("kim: each similarity check of Table 1 fails on its own") {
         CHECK(at(r, "traced", 1, 0) == (check == 0.f ? 0.f : 1.f));
         if (check == 0.f) {  // interpolated: shade() of the midpoint vector
             const float gcol = 0.5f * (src(0, 0).global_color.r + src(2, 0).global_color.r);
-            CHECK(r.color[1].r == doctest::Approx(0.1f * 1.f + gcol));
+            CHECK(r.color[1].r == test::Approx(0.1f * 1.f + gcol));
             CHECK(r.shaded == 1);
         }
         return int(check);
@@ -383,7 +384,7 @@ TEST_CASE("kim: a non-finite sample is dropped and never interpolated") {
     CHECK(at(r, "check", 3, 0) == 7.f);
     for (uint32_t x : {0u, 1u, 3u}) {
         CHECK(std::isfinite(r.color[x].r));
-        CHECK(r.color[x].r == doctest::Approx(0.1f * float(x)));
+        CHECK(r.color[x].r == test::Approx(0.1f * float(x)));
     }
 }
 
@@ -406,7 +407,7 @@ TEST_CASE("kim: an interpolation between escaped references, one non-finite, is 
         CHECK(r.color[x].r == 0.f);
         CHECK(r.color[x].g == 0.f);
     }
-    CHECK(r.color[0].g == doctest::Approx(0.2f));
+    CHECK(r.color[0].g == test::Approx(0.2f));
 }
 
 TEST_CASE("kim: T_pos is relative to the scene's longest side") {
@@ -570,7 +571,7 @@ TEST_CASE("kim: supersampling runs the undersampling on the ss x ss lattice") {
     src->reset_counts();
     r = render_kim(*src, "scene-size=1000,ss=4,block=4");
     CHECK(r.samples == 24 * 16);
-    CHECK(r.active_fraction == doctest::Approx(1.0 / 16));
+    CHECK(r.active_fraction == test::Approx(1.0 / 16));
     CHECK(src->count(5, 5) == 1);
 
     // An edge on the lattice: counts per pixel equal the traced samples of the layer.

@@ -14,6 +14,7 @@
 #include <string>
 #include <vector>
 
+#include "approx.h"
 #include "sampling/pixel_sampler.h"
 #include "scheduler/frame_scheduler.h"
 #include "plugin_test_util.h"
@@ -263,10 +264,10 @@ TEST_CASE("suffern: parameters, defaults from the source, errors naming plugin a
     REQUIRE(info != nullptr);
     CHECK(info->kind == PluginKind::Frame);
     PluginSpec d = parse_plugin_spec("suffern");
-    CHECK(d.params.get("tolerance") == doctest::Approx(0.05));  // the source's threshold
+    CHECK(d.params.get("tolerance") == test::Approx(0.05));  // the source's threshold
     CHECK(d.params.get_int("levels") == 2);                     // two levels of subdivision
     PluginSpec s = parse_plugin_spec("suffern:tolerance=0.01,levels=1");
-    CHECK(s.params.get("tolerance") == doctest::Approx(0.01));
+    CHECK(s.params.get("tolerance") == test::Approx(0.01));
     CHECK(s.params.get_int("levels") == 1);
 
     auto msg = [](const char *text) { return test::spec_error(text); };
@@ -373,13 +374,13 @@ TEST_CASE("suffern: a vertical edge splits exactly the pixels it crosses, level 
         CHECK(rec.count(41, y) == 1);
         CHECK(rec.count(43, y) == 0);
     }
-    CHECK(r.active_fraction == doctest::Approx(1.0 / w));
+    CHECK(r.active_fraction == test::Approx(1.0 / w));
     // The pixels beside the crossed column are exact (flat on either side).
     CHECK(same_bits(r.color[9], edge.color));
     CHECK(same_bits(r.color[11], src.shapes[0].color));
     // The split pixel's coverage estimate: 1/2 * (1 + 1/2) / 2 = 0.375 (true 0.3).
     const float cover = (r.color[10].r - 0.2f) / (0.9f - 0.2f);
-    CHECK(cover == doctest::Approx(0.375f).epsilon(1e-5));
+    CHECK(cover == test::Approx(0.375f).epsilon(1e-5));
 
     // levels=1 stops after the first split: 9 points, level 1.
     FrameResult r1 = render(src, "suffern:levels=1");
@@ -452,7 +453,7 @@ TEST_CASE("suffern: equals the source's per-pixel algorithm; every used point tr
         CHECK(colour);
         CHECK(level);
         CHECK(points);
-        CHECK(r.active_fraction == doctest::Approx(double(split) / double(w * h)));
+        CHECK(r.active_fraction == test::Approx(double(split) / double(w * h)));
         if (s.params.get_int("levels") == 2)
             CHECK(deep > 0);
         // Rays per pixel add up; the synthetic source traces 2 or 3 rays per sample.

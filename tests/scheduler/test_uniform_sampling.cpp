@@ -20,6 +20,7 @@
 #include <utility>
 #include <vector>
 
+#include "approx.h"
 #include "sampling/film.h"
 #include "sampling/sequence.h"
 #include "scheduler/adaptive_scheduler.h"
@@ -308,7 +309,7 @@ TEST_CASE("uniform: NaN samples are dropped and counted") {
     CHECK(ps.accepted == spp / 2);
     CHECK(ps.half_accepted == 0);  // every odd index was the NaN
     CHECK(std::isfinite(film.mean(3, 4).g));
-    CHECK(film.mean(3, 4).r == doctest::Approx((3 + 0.5) / w).epsilon(0.02));
+    CHECK(film.mean(3, 4).r == test::Approx((3 + 0.5) / w).epsilon(0.02));
     CHECK(film.pixel_stats(4, 4).accepted == spp);
 }
 
@@ -360,14 +361,14 @@ TEST_CASE("progress line formatting (scheduler/progress.h)") {
     st.fraction = 0.25;
     st.elapsed_s = 10;
     st.rays_per_s = 12.34e6;
-    CHECK(estimate_eta_s(st) == doctest::Approx(30.0));
+    CHECK(estimate_eta_s(st) == test::Approx(30.0));
     std::string line = format_progress_line(st, 8);
     CHECK(line == "[##......] pass 3/7  spp 4/64  12.3 Mrays/s  ETA 0:30");
     st.time_budget_s = 15;  // 5 s left caps the estimate
-    CHECK(estimate_eta_s(st) == doctest::Approx(5.0));
+    CHECK(estimate_eta_s(st) == test::Approx(5.0));
     ProgressReporter quiet(ProgressReporter::Mode::Never);
     CHECK(!quiet.enabled());
     quiet.begin(2, 4, 100, 0);
     quiet.add_work(50, 10);
-    CHECK(quiet.state().fraction == doctest::Approx(0.5));
+    CHECK(quiet.state().fraction == test::Approx(0.5));
 }
