@@ -5,6 +5,7 @@
 #include <embree3/rtcore_ray.h>
 
 #include <algorithm>
+#include <array>
 #include <climits>
 #include <cmath>
 #include <cstring>
@@ -95,13 +96,14 @@ bool intersect_quadric(const Quadric &q, Vec3d o_world, Vec3d d_world, double t_
 class GeometryGroup {
   public:
     struct Record {
-        enum class Kind { Mesh, Quadric, Instance } kind;
-        int index;  // into meshes / quadrics / Geometry::instances_
+        enum class Kind { Mesh, Quadric, Instance, Curves } kind;
+        int index;  // into meshes / quadrics / Geometry::instances_ / curves
     };
     std::string name;
     RTCScene scene = nullptr;
     std::vector<std::unique_ptr<TriangleMesh>> meshes;
     std::vector<std::unique_ptr<Quadric>> quadrics;
+    std::vector<std::unique_ptr<CurveSet>> curves;
     std::vector<Record> records;  // by geomID
     bool committed = false;
 };
@@ -328,6 +330,85 @@ void Geometry::add_quadric(int group, const Quadric &quad) {
     g.quadrics.push_back(std::move(q));
 }
 
+namespace {
+
+/// Spherical interpolation of unit vectors (pbrt-v4 Slerp; the chord is used when they are
+/// (anti)parallel).
+Vec3f slerp(float t, Vec3f a, Vec3f b) {
+    float c = clamp(dot(a, b), -1.f, 1.f);
+    float theta = std::acos(c), s = std::sin(theta);
+    if (!(s > 1e-6f)) return normalize(a * (1 - t) + b * t);
+    return a * (std::sin((1 - t) * theta) / s) + b * (std::sin(t * theta) / s);
+}
+
+}  // namespace
+
+/// The control points of the cubic Bézier `p` restricted to [u0, u1] (blossoms).
+std::array<Vec3f, 4> bezier_piece(const Vec3f *p, float u0, float u1) {
+    auto blossom = [&](float a, float b, float c) {
+        Vec3f q0 = p[0] * (1 - a) + p[1] * a, q1 = p[1] * (1 - a) + p[2] * a,
+              q2 = p[2] * (1 - a) + p[3] * a;
+        Vec3f r0 = q0 * (1 - b) + q1 * b, r1 = q1 * (1 - b) + q2 * b;
+        return r0 * (1 - c) + r1 * c;
+    };
+    if (u0 == 0.f && u1 == 1.f) return {p[0], p[1], p[2], p[3]};
+    return {blossom(u0, u0, u0), blossom(u0, u0, u1), blossom(u0, u1, u1), blossom(u1, u1, u1)};
+}
+
+void Geometry::add_curves(int group, CurveSet curves) {
+    GeometryGroup &g = *groups_.at(size_t(group));
+    const size_t nseg = curves.segment_count();
+    if (nseg == 0) return;
+    auto c = std::make_unique<CurveSet>(std::move(curves));
+    c->splits = std::max(1, c->splits);
+    const size_t splits = size_t(c->splits), nprim = nseg * splits;
+    const bool ribbon = c->type == CurveSet::Type::Ribbon;
+    RTCGeometry geom =
+        rtcNewGeometry(device_, ribbon ? RTC_GEOMETRY_TYPE_NORMAL_ORIENTED_BEZIER_CURVE
+                                       : RTC_GEOMETRY_TYPE_FLAT_BEZIER_CURVE);
+    // Control points with Embree's radius, half of pbrt's width. Linear in u along a segment:
+    // a Bézier curve whose control values are equally spaced is linear in its parameter.
+    auto *v = static_cast<float *>(rtcSetNewGeometryBuffer(
+        geom, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT4, 4 * sizeof(float), 4 * nprim));
+    auto *idx = static_cast<uint32_t *>(rtcSetNewGeometryBuffer(
+        geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT, sizeof(uint32_t), nprim));
+    float *nrm = nullptr;
+    if (ribbon)
+        nrm = static_cast<float *>(rtcSetNewGeometryBuffer(
+            geom, RTC_BUFFER_TYPE_NORMAL, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float), 4 * nprim));
+    for (size_t prim = 0; prim < nprim; ++prim) {
+        const size_t s = prim / splits;
+        const float u0 = float(prim % splits) / float(splits);
+        const float u1 = float(prim % splits + 1) / float(splits);
+        const std::array<Vec3f, 4> piece = bezier_piece(&c->cp[4 * s], u0, u1);
+        idx[prim] = uint32_t(4 * prim);
+        const float w0 = c->width[2 * s], w1 = c->width[2 * s + 1];
+        for (int k = 0; k < 4; ++k) {
+            // The width is linear in the segment's parameter, so in the piece's too.
+            const float u = u0 + (u1 - u0) * float(k) / 3.f;
+            float *dst = v + 4 * (4 * prim + size_t(k));
+            dst[0] = piece[size_t(k)].x;
+            dst[1] = piece[size_t(k)].y;
+            dst[2] = piece[size_t(k)].z;
+            dst[3] = 0.5f * (w0 + (w1 - w0) * u);
+            if (nrm) {
+                Vec3f nk = slerp(u, c->n[2 * s], c->n[2 * s + 1]);
+                float *dn = nrm + 3 * (4 * prim + size_t(k));
+                dn[0] = nk.x;
+                dn[1] = nk.y;
+                dn[2] = nk.z;
+            }
+        }
+    }
+    rtcSetGeometryTessellationRate(geom, float(clamp(c->tessellation, 1, 16)));
+    rtcCommitGeometry(geom);
+    unsigned id = rtcAttachGeometry(g.scene, geom);
+    rtcReleaseGeometry(geom);
+    if (g.records.size() <= id) g.records.resize(id + 1);
+    g.records[id] = {GeometryGroup::Record::Kind::Curves, int(g.curves.size())};
+    g.curves.push_back(std::move(c));
+}
+
 void Geometry::add_instance(int proto, const Transform &render_from_instance) {
     GeometryGroup &p = *groups_.at(size_t(proto));
     if (!p.committed) {
@@ -395,6 +476,8 @@ int Geometry::object_material(int32_t object_id) const {
         return g->meshes[size_t(rec.index)]->material;
     if (rec.kind == GeometryGroup::Record::Kind::Quadric)
         return g->quadrics[size_t(rec.index)]->material;
+    if (rec.kind == GeometryGroup::Record::Kind::Curves)
+        return g->curves[size_t(rec.index)]->material;
     return -1;  // nested instances are not built
 }
 
@@ -571,6 +654,66 @@ void fill_quadric(const Quadric &q, Vec3f p_world, SurfaceInteraction &si) {
     si.area_light = q.light;
 }
 
+Vec3f lerp3(float t, Vec3f a, Vec3f b) { return a * (1 - t) + b * t; }
+
+/// The hit of ray (o, d) at t on Embree primitive `prim` at its curve parameter u, all in the
+/// curve set's space (pbrt-v4 Curve::IntersectSegment's interaction).
+void fill_curve(const CurveSet &c, unsigned prim, float u, Vec3f o, Vec3f d, float t,
+                SurfaceInteraction &si) {
+    // Embree's primitive is piece prim % splits of segment prim / splits: u along the segment.
+    const unsigned splits = unsigned(c.splits), seg = prim / splits;
+    u = (float(prim % splits) + clamp(u, 0.f, 1.f)) / float(splits);
+    const Vec3f *cp = &c.cp[4 * size_t(seg)];
+    // De Casteljau: the point and the tangent of the cubic Bézier.
+    Vec3f a = lerp3(u, cp[0], cp[1]), b = lerp3(u, cp[1], cp[2]), e = lerp3(u, cp[2], cp[3]);
+    Vec3f ab = lerp3(u, a, b), be = lerp3(u, b, e);
+    Vec3f centre = lerp3(u, ab, be);
+    Vec3f dpdu = (be - ab) * 3.f;
+    if (length_squared(dpdu) == 0.f) dpdu = cp[3] - cp[0];
+    if (length_squared(dpdu) == 0.f) dpdu = {1, 0, 0};
+    const float w = lerp(u, c.width[2 * size_t(seg)], c.width[2 * size_t(seg) + 1]);
+    Vec3f p = o + d * t;
+    Vec3f dir = normalize(d);
+    Vec3f dpdv;
+    float v;
+    if (c.type == CurveSet::Type::Ribbon) {
+        Vec3f n_hit = slerp(u, c.n[2 * size_t(seg)], c.n[2 * size_t(seg) + 1]);
+        Vec3f side = cross(n_hit, dpdu);
+        if (length_squared(side) == 0.f) side = Frame::from_z(normalize(dpdu)).x;
+        side = normalize(side);
+        v = 0.5f + dot(p - centre, side) / w;
+        dpdv = side * w;
+    } else {
+        // Across the width, perpendicular to the tangent and to the ray.
+        Vec3f side = cross(dir, dpdu);
+        if (length_squared(side) == 0.f) side = Frame::from_z(dir).x;
+        side = normalize(side);
+        v = 0.5f + dot(p - centre, side) / w;
+        dpdv = side * w;
+        if (c.type == CurveSet::Type::Cylinder) {
+            // pbrt-v4: dpdv rotated about dpdu by -lerp(v, -90, 90) degrees, so the normal
+            // sweeps across the width as a cylinder's would.
+            float theta = radians(lerp(clamp(v, 0.f, 1.f), -90.f, 90.f));
+            Vec3f axis = normalize(dpdu);
+            float cs = std::cos(-theta), sn = std::sin(-theta);
+            dpdv = dpdv * cs + cross(axis, dpdv) * sn + axis * (dot(axis, dpdv) * (1 - cs));
+        }
+    }
+    Vec3f n = cross(dpdu, dpdv);
+    n = length_squared(n) > 0.f ? normalize(n) : -dir;
+    if (c.flip_normal) n = -n;
+    si.p = p;
+    // pbrt-v4 bounds the hit by the curve's width at the hit: rays leave the ribbon by that.
+    si.p_error = Vec3f(w, w, w);
+    si.n = n;
+    si.ns = n;
+    si.dpdu = dpdu;
+    si.dpdv = dpdv;
+    si.uv = {u, clamp(v, 0.f, 1.f)};
+    si.material = c.material;
+    si.area_light = nullptr;
+}
+
 }  // namespace
 
 std::optional<SurfaceInteraction> Geometry::intersect(const Ray &ray) const {
@@ -688,6 +831,13 @@ void Geometry::fill_hit(const Ray &ray, float t, unsigned geom_id, unsigned prim
     const auto &rec = g->records[geom_id];
     if (rec.kind == GeometryGroup::Record::Kind::Mesh) {
         fill_triangle(*g->meshes[size_t(rec.index)], prim_id, u, v, si);
+    } else if (rec.kind == GeometryGroup::Record::Kind::Curves) {
+        Vec3f o = ray.o, d = ray.d;
+        if (inst) {
+            o = inst->inverse_point(o);
+            d = inst->inverse_vector(d);
+        }
+        fill_curve(*g->curves[size_t(rec.index)], prim_id, u, o, d, si.t, si);
     } else {
         // Quadrics compute their hit from the ray in their group's space.
         Vec3f o = ray.o, d = ray.d;

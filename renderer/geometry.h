@@ -54,11 +54,31 @@ struct Quadric {
     const Light *light = nullptr;
 };
 
+/// pbrt "curve" shapes as cubic Bézier segments (the scene builder converts pbrt-v4's B-spline
+/// and quadratic bases as pbrt-v4 does), in the space of the group they are added to. Embree
+/// intersects "flat" and "cylinder" curves as ribbons that face the ray (pbrt-v4 intersects both
+/// that way; "cylinder" only bends the normal across the width) and "ribbon" curves as ribbons
+/// oriented by the normals pbrt gives at the segment ends.
+struct CurveSet {
+    enum class Type { Flat, Cylinder, Ribbon };
+    Type type = Type::Cylinder;
+    std::vector<Vec3f> cp;     ///< 4 control points per segment
+    std::vector<float> width;  ///< full width at each segment's start and end (2 per segment)
+    std::vector<Vec3f> n;      ///< ribbons: unit normal at each segment's start and end
+    bool flip_normal = false;  ///< ReverseOrientation xor handedness swap
+    int material = -1;
+    /// Each segment goes to Embree as `splits` Bézier pieces of equal parameter range, each
+    /// tessellated into `tessellation` flat pieces (Embree allows at most 16).
+    int splits = 1;
+    int tessellation = 8;
+    size_t segment_count() const { return cp.size() / 4; }
+};
+
 /// One Embree scene: the top level, or an instanced object's prototype.
 class GeometryGroup;
 
 /// A shape of the top level (not instanced) with its object id (see Geometry::object_material).
-/// Exactly one of `mesh` and `quadric` is set.
+/// Exactly one of `mesh` and `quadric` is set (curves are not listed: they cannot emit).
 struct TopLevelShape {
     int32_t object_id = -1;
     const TriangleMesh *mesh = nullptr;
@@ -85,6 +105,8 @@ class Geometry {
 
     void add_mesh(int group, TriangleMesh mesh);
     void add_quadric(int group, const Quadric &q);
+    /// Adds curve segments (Embree flat or normal-oriented Bézier curves).
+    void add_curves(int group, CurveSet curves);
     /// Adds an instance of prototype `proto` at the top level.
     void add_instance(int proto, const Transform &render_from_instance);
     /// Builds the BVHs. Call once after adding everything.

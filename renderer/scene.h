@@ -31,6 +31,7 @@ struct SceneFeatures {
     bool delta_lights = false;    ///< point, spot or distant lights
     bool instances = false;       ///< object instancing
     bool quadrics = false;        ///< spheres or disks (user geometry)
+    bool curves = false;          ///< pbrt "curve" shapes (Embree curves)
     std::string describe() const;
 };
 

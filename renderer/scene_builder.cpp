@@ -41,6 +41,7 @@ std::string SceneFeatures::describe() const {
     add(delta_lights, "delta lights");
     add(instances, "instances");
     add(quadrics, "quadrics");
+    add(curves, "curves");
     return s.empty() ? "(none)" : s;
 }
 
@@ -600,8 +601,151 @@ struct Builder {
             sc.geometry->add_quadric(group, q);
             return;
         }
+        if (sd.type == "curve") {
+            add_curve(group, sd, xf, material, emissive);
+            return;
+        }
         warn(sd.loc, "Shape \"" + sd.type + "\" is not supported; it is not rendered");
         for (const Param &p : sd.params.params) p.used = true;
+    }
+
+    /// pbrt-v4 "curve" (CreateCurves): Bézier or uniform B-spline control points of degree 2
+    /// or 3, each segment turned into a cubic Bézier; the width runs linearly from width0 to
+    /// width1 over the segments.
+    void add_curve(int group, const ShapeDesc &sd, const Transform &xf, int material,
+                   bool emissive) {
+        const ParamSet &ps = sd.params;
+        const float width = ps.get_float("width", 1.f);
+        const float width0 = ps.get_float("width0", width), width1 = ps.get_float("width1", width);
+        if (!(width0 >= 0.f) || !(width1 >= 0.f) || !(std::max(width0, width1) > 0.f))
+            throw SceneError(sd.loc, "curve: the widths must be non-negative and not both 0");
+        const int degree = ps.get_int("degree", 3);
+        if (degree != 2 && degree != 3)
+            throw SceneError(sd.loc, "curve: invalid degree " + std::to_string(degree) +
+                                         ": only degree 2 and 3 curves are supported");
+        const std::string basis = ps.get_string("basis", "bezier");
+        if (basis != "bezier" && basis != "bspline")
+            throw SceneError(sd.loc, "curve: invalid basis \"" + basis +
+                                         "\": only \"bezier\" and \"bspline\" are supported");
+        const std::vector<Vec3f> cp = ps.get_point3s("P");
+        const size_t ncp = cp.size(), deg = size_t(degree);
+        size_t nseg = 0;
+        if (basis == "bezier") {
+            if (ncp < deg + 1 || (ncp - 1 - deg) % deg != 0)
+                throw SceneError(sd.loc, "curve: " + std::to_string(ncp) +
+                                             " control points; the degree " +
+                                             std::to_string(degree) + " Bezier basis needs " +
+                                             std::to_string(degree + 1) + " + n * " +
+                                             std::to_string(degree));
+            nseg = (ncp - 1) / deg;
+        } else {
+            if (ncp < deg + 1)
+                throw SceneError(sd.loc, "curve: " + std::to_string(ncp) +
+                                             " control points; the degree " +
+                                             std::to_string(degree) +
+                                             " b-spline basis needs at least " +
+                                             std::to_string(degree + 1));
+            nseg = ncp - deg;
+        }
+        CurveSet c;
+        const std::string type = ps.get_string("type", "flat");
+        if (type == "flat") {
+            c.type = CurveSet::Type::Flat;
+        } else if (type == "ribbon") {
+            c.type = CurveSet::Type::Ribbon;
+        } else if (type == "cylinder") {
+            c.type = CurveSet::Type::Cylinder;
+        } else {
+            warn(sd.loc, "curve: unknown type \"" + type + "\"; using \"cylinder\"");
+            c.type = CurveSet::Type::Cylinder;
+        }
+        std::vector<Vec3f> normals = ps.get_normals("N");
+        if (!normals.empty() && c.type != CurveSet::Type::Ribbon) {
+            warn(ps.find("N")->loc, "curve: normals \"N\" are only used by \"ribbon\" curves; "
+                                    "ignored");
+            normals.clear();
+        } else if (c.type == CurveSet::Type::Ribbon && normals.size() != nseg + 1) {
+            throw SceneError(sd.loc, "curve: a ribbon with " + std::to_string(nseg) +
+                                         " segments needs " + std::to_string(nseg + 1) +
+                                         " normals \"N\" (one per segment end), not " +
+                                         std::to_string(normals.size()));
+        }
+        // pbrt-v4 splits each segment into 2^splitdepth pieces (tighter bounds: here too, a
+        // long thin segment in one piece traced 4x slower), then refines each piece adaptively
+        // while intersecting; Embree tessellates each piece at the rate set below.
+        const int split_depth = std::clamp(ps.get_int("splitdepth", 3), 0, 10);
+        if (const Param *a = ps.find("alpha")) {
+            a->used = true;
+            warn(a->loc, "\"alpha\" on curves is not supported; rendered opaque");
+        }
+        if (emissive) {
+            // pbrt-v4 cannot sample points on curves, so they cannot be area lights there.
+            warn(sd.area_light_loc, "area lights on curves are not supported; the curve does "
+                                    "not emit");
+            for (const Param &p : sd.area_light->params) p.used = true;
+        }
+        // Widths are in object space: scaled by the transform's mean scale (exact for uniform
+        // scales, where pbrt-v4's object-space intersection gives the same width).
+        const Mat4 &m = xf.matrix();
+        const double det = m.m[0][0] * (m.m[1][1] * m.m[2][2] - m.m[1][2] * m.m[2][1]) -
+                           m.m[0][1] * (m.m[1][0] * m.m[2][2] - m.m[1][2] * m.m[2][0]) +
+                           m.m[0][2] * (m.m[1][0] * m.m[2][1] - m.m[1][1] * m.m[2][0]);
+        const float scale = float(std::cbrt(std::abs(det)));
+        auto lerp3 = [](float t, Vec3f a, Vec3f b) { return a * (1 - t) + b * t; };
+        for (size_t seg = 0; seg < nseg; ++seg) {
+            std::array<Vec3f, 4> b;
+            if (basis == "bezier") {
+                const Vec3f *q = &cp[seg * deg];
+                if (degree == 2)
+                    b = {q[0], lerp3(2.f / 3.f, q[0], q[1]), lerp3(1.f / 3.f, q[1], q[2]), q[2]};
+                else
+                    b = {q[0], q[1], q[2], q[3]};
+            } else if (degree == 2) {
+                const Vec3f *q = &cp[seg];
+                Vec3f p11 = lerp3(0.5f, q[0], q[1]), p22 = lerp3(0.5f, q[1], q[2]);
+                b = {p11, lerp3(2.f / 3.f, p11, q[1]), lerp3(1.f / 3.f, q[1], p22), p22};
+            } else {
+                const Vec3f *q = &cp[seg];
+                Vec3f p122 = lerp3(2.f / 3.f, q[0], q[1]), p223 = lerp3(1.f / 3.f, q[1], q[2]);
+                Vec3f p233 = lerp3(2.f / 3.f, q[1], q[2]), p334 = lerp3(1.f / 3.f, q[2], q[3]);
+                b = {lerp3(0.5f, p122, p223), p223, p233, lerp3(0.5f, p233, p334)};
+            }
+            for (const Vec3f &p : b) c.cp.push_back(xf.point(p));
+            const float t0 = float(seg) / float(nseg), t1 = float(seg + 1) / float(nseg);
+            c.width.push_back(lerp(t0, width0, width1) * scale);
+            c.width.push_back(lerp(t1, width0, width1) * scale);
+            if (c.type == CurveSet::Type::Ribbon) {
+                for (size_t k : {seg, seg + 1}) {
+                    Vec3f nk = xf.normal(normals[k]);
+                    if (!(length_squared(nk) > 0.f))
+                        throw SceneError(ps.find("N")->loc, "curve: normal " +
+                                                               std::to_string(k) + " is zero");
+                    c.n.push_back(normalize(nk));
+                }
+            }
+        }
+        // pbrt-v4's refinement depth (Curve::IntersectRay): flat pieces within a twentieth of
+        // the width of the curve, from the largest second difference of the control points;
+        // 2^depth flat pieces per segment (at most 1024, as in pbrt), in the 2^splitdepth
+        // Bézier pieces or more: Embree tessellates a piece into at most 16.
+        float l0 = 0.f, min_width = kInfinity;
+        for (size_t seg = 0; seg < nseg; ++seg) {
+            const Vec3f *q = &c.cp[4 * seg];
+            for (int i = 0; i < 2; ++i)
+                l0 = std::max(l0, max_component(abs(q[i] - q[i + 1] * 2.f + q[i + 2])));
+            min_width = std::min(min_width, std::min(c.width[2 * seg], c.width[2 * seg + 1]));
+        }
+        const float eps = std::max(min_width, 1e-6f * max_component(abs(c.cp[0]))) / 20.f;
+        const float r = 1.41421356f * 6.f * l0 / (8.f * eps);
+        const int depth = r > 1.f ? std::clamp(int(std::log2(r)) / 2, 0, 10) : 0;
+        const int split = std::max(split_depth, depth - 4);
+        c.splits = 1 << split;
+        c.tessellation = 1 << std::clamp(depth - split, 0, 4);
+        c.flip_normal = sd.reverse_orientation != xf.swaps_handedness();
+        c.material = material;
+        ps.report_unused("Shape \"curve\"");
+        sc.features.curves = true;
+        sc.geometry->add_curves(group, std::move(c));
     }
 
     /// `sample_only`: the shape is invisible (constant alpha 0); its light is sample-only.

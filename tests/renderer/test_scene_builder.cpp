@@ -240,7 +240,7 @@ TEST_CASE("build_scene: an unsupported shape warns and the scene still builds") 
     std::unique_ptr<Scene> sc = build_named(R"(
 WorldBegin
 LightSource "point" "point3 from" [ 0 0 -2 ] "rgb I" [ 1 1 1 ]
-Shape "curve" "point3 P" [ 0 0 0  1 0 0  1 1 0  0 1 0 ] "float width" [ 0.1 ]
+Shape "hyperboloid" "point3 p1" [ 0 0 0 ] "point3 p2" [ 1 1 1 ]
 Shape "trianglemesh" "point3 P" [ -1 -1 1  1 -1 1  0 1 1 ]
 )",
                                             "unsupported_shape.pbrt");
@@ -251,9 +251,39 @@ Shape "trianglemesh" "point3 P" [ -1 -1 1  1 -1 1  0 1 1 ]
     bool found = false;
     // last_warning() is the most recent; the shape warning may be followed by none other here.
     std::string w = last_warning();
-    if (w.find("unsupported_shape.pbrt:4: warning:") == 0 && w.find("curve") != std::string::npos)
+    if (w.find("unsupported_shape.pbrt:4: warning:") == 0 &&
+        w.find("hyperboloid") != std::string::npos)
         found = true;
     CHECK_MESSAGE(found, "last warning: " << w);
+}
+
+TEST_CASE("build_scene: curves warn where pbrt-v4 does (unknown type, stray normals, lights)") {
+    struct Case {
+        const char *shape, *expected;
+    };
+    const Case cases[] = {
+        {R"(Shape "curve" "point3 P" [ 0 0 0  1 0 0  2 0 0  3 0 0 ] "string type" "tube")",
+         "curve_warning.pbrt:4: warning: curve: unknown type \"tube\"; using \"cylinder\""},
+        {R"(Shape "curve" "point3 P" [ 0 0 0  1 0 0  2 0 0  3 0 0 ] "normal N" [ 0 0 1  0 0 1 ])",
+         "curve_warning.pbrt:4: warning: curve: normals \"N\" are only used by \"ribbon\""},
+        {"AreaLightSource \"diffuse\" \"rgb L\" [ 1 1 1 ]\n"
+         "Shape \"curve\" \"point3 P\" [ 0 0 0  1 0 0  2 0 0  3 0 0 ]",
+         "curve_warning.pbrt:4: warning: area lights on curves are not supported"},
+    };
+    for (const Case &c : cases) {
+        CAPTURE(c.shape);
+        const int before = warning_count();
+        std::unique_ptr<Scene> sc = build_named(std::string(R"(
+WorldBegin
+LightSource "point" "point3 from" [ 0 0 -2 ] "rgb I" [ 1 1 1 ]
+)") + c.shape + "\n",
+                                                "curve_warning.pbrt");
+        REQUIRE(sc);
+        CHECK(warning_count() == before + 1);
+        CHECK(last_warning().find(c.expected) == 0);
+        CHECK(sc->features.curves);
+        CHECK(sc->lights.size() == 1);
+    }
 }
 
 TEST_CASE("build_scene: an unsupported material type warns and the scene still builds") {
