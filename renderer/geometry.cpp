@@ -332,13 +332,17 @@ void Geometry::add_quadric(int group, const Quadric &quad) {
 
 namespace {
 
-/// Spherical interpolation of unit vectors (pbrt-v4 Slerp; the chord is used when they are
-/// (anti)parallel).
-Vec3f slerp(float t, Vec3f a, Vec3f b) {
+/// Spherical interpolation of unit vectors (pbrt-v4 Slerp). Opposite vectors, where pbrt-v4
+/// divides by zero, turn about `axis` (the curve's tangent).
+Vec3f slerp(float t, Vec3f a, Vec3f b, Vec3f axis) {
     float c = clamp(dot(a, b), -1.f, 1.f);
     float theta = std::acos(c), s = std::sin(theta);
-    if (!(s > 1e-6f)) return normalize(a * (1 - t) + b * t);
-    return a * (std::sin((1 - t) * theta) / s) + b * (std::sin(t * theta) / s);
+    if (s > 1e-4f)
+        return a * (std::sin((1 - t) * theta) / s) + b * (std::sin(t * theta) / s);
+    if (c > 0.f) return normalize(a * (1 - t) + b * t);
+    Vec3f perp = cross(axis, a);
+    perp = length_squared(perp) > 0.f ? normalize(perp) : Frame::from_z(a).x;
+    return a * std::cos(t * kPi) + perp * std::sin(t * kPi);
 }
 
 }  // namespace
@@ -392,7 +396,7 @@ void Geometry::add_curves(int group, CurveSet curves) {
             dst[2] = piece[size_t(k)].z;
             dst[3] = 0.5f * (w0 + (w1 - w0) * u);
             if (nrm) {
-                Vec3f nk = slerp(u, c->n[2 * s], c->n[2 * s + 1]);
+                Vec3f nk = slerp(u, c->n[2 * s], c->n[2 * s + 1], c->cp[4 * s + 3] - c->cp[4 * s]);
                 float *dn = nrm + 3 * (4 * prim + size_t(k));
                 dn[0] = nk.x;
                 dn[1] = nk.y;
@@ -671,35 +675,35 @@ void fill_curve(const CurveSet &c, unsigned prim, float u, Vec3f o, Vec3f d, flo
     Vec3f dpdu = (be - ab) * 3.f;
     if (length_squared(dpdu) == 0.f) dpdu = cp[3] - cp[0];
     if (length_squared(dpdu) == 0.f) dpdu = {1, 0, 0};
-    const float w = lerp(u, c.width[2 * size_t(seg)], c.width[2 * size_t(seg) + 1]);
     Vec3f p = o + d * t;
     Vec3f dir = normalize(d);
-    Vec3f dpdv;
-    float v;
-    if (c.type == CurveSet::Type::Ribbon) {
-        Vec3f n_hit = slerp(u, c.n[2 * size_t(seg)], c.n[2 * size_t(seg) + 1]);
-        Vec3f side = cross(n_hit, dpdu);
-        if (length_squared(side) == 0.f) side = Frame::from_z(normalize(dpdu)).x;
-        side = normalize(side);
-        v = 0.5f + dot(p - centre, side) / w;
-        dpdv = side * w;
-    } else {
-        // Across the width, perpendicular to the tangent and to the ray.
-        Vec3f side = cross(dir, dpdu);
-        if (length_squared(side) == 0.f) side = Frame::from_z(dir).x;
-        side = normalize(side);
-        v = 0.5f + dot(p - centre, side) / w;
-        dpdv = side * w;
-        if (c.type == CurveSet::Type::Cylinder) {
-            // pbrt-v4: dpdv rotated about dpdu by -lerp(v, -90, 90) degrees, so the normal
-            // sweeps across the width as a cylinder's would.
-            float theta = radians(lerp(clamp(v, 0.f, 1.f), -90.f, 90.f));
-            Vec3f axis = normalize(dpdu);
-            float cs = std::cos(-theta), sn = std::sin(-theta);
-            dpdv = dpdv * cs + cross(axis, dpdv) * sn + axis * (dot(axis, dpdv) * (1 - cs));
-        }
+    // pbrt-v4 builds the frame in object space; here it is the group's space. A mirroring
+    // transform between them turns cross products around: `mirror` turns them back, so v,
+    // dpdv and n are pbrt's.
+    const float mirror = c.mirrored ? -1.f : 1.f;
+    // Across the width: perpendicular to the tangent and to the ray (flat, cylinder) or to the
+    // interpolated normal (ribbon).
+    Vec3f side = c.type == CurveSet::Type::Ribbon
+                     ? cross(slerp(u, c.n[2 * size_t(seg)], c.n[2 * size_t(seg) + 1], dpdu), dpdu)
+                     : cross(dir, dpdu);
+    if (length_squared(side) == 0.f) side = Frame::from_z(normalize(dpdu)).x;
+    side = normalize(side) * mirror;
+    const float offset = dot(p - centre, side);
+    // The width at the hit; a tapered end of width 0 still gets the hit's own distance.
+    float w = lerp(u, c.width[2 * size_t(seg)], c.width[2 * size_t(seg) + 1]);
+    w = std::max(w, 2.f * std::abs(offset));
+    if (!(w > 0.f)) w = std::max(max_component(abs(p)), 1e-30f) * gamma_n(7);
+    const float v = 0.5f + offset / w;
+    Vec3f dpdv = side * w;
+    if (c.type == CurveSet::Type::Cylinder) {
+        // pbrt-v4: dpdv rotated about dpdu by -lerp(v, -90, 90) degrees, so the normal sweeps
+        // across the width as a cylinder's would.
+        float theta = mirror * radians(lerp(clamp(v, 0.f, 1.f), -90.f, 90.f));
+        Vec3f axis = normalize(dpdu);
+        float cs = std::cos(-theta), sn = std::sin(-theta);
+        dpdv = dpdv * cs + cross(axis, dpdv) * sn + axis * (dot(axis, dpdv) * (1 - cs));
     }
-    Vec3f n = cross(dpdu, dpdv);
+    Vec3f n = cross(dpdu, dpdv) * mirror;
     n = length_squared(n) > 0.f ? normalize(n) : -dir;
     if (c.flip_normal) n = -n;
     si.p = p;

@@ -57,8 +57,9 @@ struct Quadric {
 /// pbrt "curve" shapes as cubic Bézier segments (the scene builder converts pbrt-v4's B-spline
 /// and quadratic bases as pbrt-v4 does), in the space of the group they are added to. Embree
 /// intersects "flat" and "cylinder" curves as ribbons that face the ray (pbrt-v4 intersects both
-/// that way; "cylinder" only bends the normal across the width) and "ribbon" curves as ribbons
-/// oriented by the normals pbrt gives at the segment ends.
+/// that way; "cylinder" only bends the normal across the width) and "ribbon" curves as true
+/// ribbons oriented by the normals pbrt gives at the segment ends (pbrt-v4 narrows a ray-facing
+/// strip by |n.d| instead; the two differ for rays at an angle to the tangent).
 struct CurveSet {
     enum class Type { Flat, Cylinder, Ribbon };
     Type type = Type::Cylinder;
@@ -66,6 +67,7 @@ struct CurveSet {
     std::vector<float> width;  ///< full width at each segment's start and end (2 per segment)
     std::vector<Vec3f> n;      ///< ribbons: unit normal at each segment's start and end
     bool flip_normal = false;  ///< ReverseOrientation xor handedness swap
+    bool mirrored = false;     ///< the transform into the group's space swaps handedness
     int material = -1;
     /// Each segment goes to Embree as `splits` Bézier pieces of equal parameter range, each
     /// tessellated into `tessellation` flat pieces (Embree allows at most 16).

@@ -674,9 +674,15 @@ struct Builder {
         // long thin segment in one piece traced 4x slower), then refines each piece adaptively
         // while intersecting; Embree tessellates each piece at the rate set below.
         const int split_depth = std::clamp(ps.get_int("splitdepth", 3), 0, 10);
+        // Constant alpha 0 hides the curve (pbrt-v4); other alpha values are not supported.
+        bool invisible = false;
         if (const Param *a = ps.find("alpha")) {
             a->used = true;
-            warn(a->loc, "\"alpha\" on curves is not supported; rendered opaque");
+            const bool constant = a->type == "float" && !a->numbers.empty();
+            invisible = constant && a->numbers[0] <= 0.0;
+            if (!(constant && (a->numbers[0] >= 1.0 || invisible)))
+                warn(a->loc, "\"alpha\" on curves is not supported except 0 and 1; rendered "
+                             "opaque");
         }
         if (emissive) {
             // pbrt-v4 cannot sample points on curves, so they cannot be area lights there.
@@ -728,22 +734,28 @@ struct Builder {
         // the width of the curve, from the largest second difference of the control points;
         // 2^depth flat pieces per segment (at most 1024, as in pbrt), in the 2^splitdepth
         // Bézier pieces or more: Embree tessellates a piece into at most 16.
-        float l0 = 0.f, min_width = kInfinity;
+        int depth = 0;
         for (size_t seg = 0; seg < nseg; ++seg) {
             const Vec3f *q = &c.cp[4 * seg];
+            float l0 = 0.f;
             for (int i = 0; i < 2; ++i)
                 l0 = std::max(l0, max_component(abs(q[i] - q[i + 1] * 2.f + q[i + 2])));
-            min_width = std::min(min_width, std::min(c.width[2 * seg], c.width[2 * seg + 1]));
+            const float eps = std::max(c.width[2 * seg], c.width[2 * seg + 1]) * 0.05f;
+            const float r = 1.41421356f * 6.f * l0 / (8.f * eps);
+            // pbrt-v4's Log2Int rounds to the nearest power of two.
+            if (r > 1.f && r < 1e30f)
+                depth = std::max(depth, std::min(int(std::lround(std::log2(r))) / 2, 10));
+            else if (!(r <= 1.f))
+                depth = 10;  // overflow: the finest refinement
         }
-        const float eps = std::max(min_width, 1e-6f * max_component(abs(c.cp[0]))) / 20.f;
-        const float r = 1.41421356f * 6.f * l0 / (8.f * eps);
-        const int depth = r > 1.f ? std::clamp(int(std::log2(r)) / 2, 0, 10) : 0;
         const int split = std::max(split_depth, depth - 4);
         c.splits = 1 << split;
         c.tessellation = 1 << std::clamp(depth - split, 0, 4);
         c.flip_normal = sd.reverse_orientation != xf.swaps_handedness();
+        c.mirrored = xf.swaps_handedness();
         c.material = material;
         ps.report_unused("Shape \"curve\"");
+        if (invisible) return;
         sc.features.curves = true;
         sc.geometry->add_curves(group, std::move(c));
     }

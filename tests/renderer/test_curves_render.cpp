@@ -38,13 +38,16 @@ double uncovered(const std::string &curve) {
 
 TEST_CASE("curve: a ray hits a flat curve where its width says, with pbrt-v4's v and normal") {
     // A straight cubic Bezier along x (evenly spaced control points: u is linear in x), 0.5
-    // wide, in the plane z = 0.
+    // wide, in the plane z = 0; as given, mirrored in x, reversed, or both.
     const std::string curve =
         "Shape \"curve\" \"point3 P\" [ -3 0 0  -1 0 0  1 0 0  3 0 0 ] \"float width\" 0.5\n";
-    for (bool reverse : {false, true}) {
+    for (int variant = 0; variant < 4; ++variant) {
+        const bool reverse = variant & 1, mirror = variant & 2;
         CAPTURE(reverse);
+        CAPTURE(mirror);
         auto scene = test::scene_from_string(
-            ortho_scene(std::string(reverse ? "ReverseOrientation\n" : "") + curve));
+            ortho_scene(std::string(reverse ? "ReverseOrientation\n" : "") +
+                        (mirror ? "Scale -1 1 1\n" : "") + curve));
         const Geometry &g = *scene->geometry;
         auto hit = g.intersect(Ray{{0.1f, 0.05f, 5.f}, {0.f, 0.f, -1.f}, kInfinity});
         REQUIRE(hit);
@@ -52,16 +55,17 @@ TEST_CASE("curve: a ray hits a flat curve where its width says, with pbrt-v4's v
         CHECK(hit->p.x == test::Approx(0.1).epsilon(1e-5));
         CHECK(hit->p.y == test::Approx(0.05).epsilon(1e-5));
         CHECK(std::abs(hit->p.z) < 1e-5f);
-        // u along the segment; v across the width: 0.5 + 0.05 / 0.5 on the side of
-        // cross(ray direction, dpdu) = cross(-z, +x) = -y, so below 0.5.
-        CHECK(hit->uv.x == test::Approx((0.1 + 3.0) / 6.0).epsilon(1e-3));
+        // u along the segment (object x = -0.1 when mirrored); v across the width in object
+        // space: 0.5 + 0.05 / 0.5 on the side of cross(ray direction, dpdu) = cross(-z, +x) =
+        // -y, so below 0.5, mirrored or not.
+        CHECK(hit->uv.x == test::Approx(((mirror ? -0.1 : 0.1) + 3.0) / 6.0).epsilon(1e-3));
         CHECK(hit->uv.y == test::Approx(0.4).epsilon(1e-3));
-        // pbrt-v4's flat-curve normal cross(dpdu, dpdv) points along the ray, flipped by
-        // ReverseOrientation.
-        CHECK(hit->n.z == test::Approx(reverse ? 1.0 : -1.0).epsilon(1e-6));
+        // pbrt-v4's flat-curve normal cross(dpdu, dpdv) points along the object-space ray,
+        // flipped by ReverseOrientation xor a handedness swap.
+        CHECK(hit->n.z == test::Approx(reverse != mirror ? 1.0 : -1.0).epsilon(1e-6));
         CHECK(hit->ns.z == hit->n.z);
-        CHECK(hit->dpdu.x == test::Approx(6.0).epsilon(1e-4));
-        CHECK(length(hit->dpdv) == test::Approx(0.5).epsilon(1e-4));
+        CHECK(hit->dpdu.x == test::Approx(mirror ? -6.0 : 6.0).epsilon(1e-4));
+        CHECK(hit->dpdv.y == test::Approx(-0.5).epsilon(1e-4));
         // The error bound is the width at the hit (pbrt-v4): spawned rays clear the ribbon.
         CHECK(hit->p_error.x == test::Approx(0.5).epsilon(1e-6));
         CHECK(g.object_material(hit->object_id) == hit->material);
@@ -71,6 +75,48 @@ TEST_CASE("curve: a ray hits a flat curve where its width says, with pbrt-v4's v
         CHECK(g.occluded(Ray{{0.f, 0.2f, 5.f}, {0.f, 0.f, -1.f}, 10.f}));
         CHECK_FALSE(g.occluded(Ray{{0.f, 0.2f, 5.f}, {0.f, 0.f, -1.f}, 4.9f}));
     }
+}
+
+TEST_CASE("curve: degenerate ends and normals give finite hits; alpha 0 hides a curve") {
+    // A tip of width 0: hits near it have a finite v and a positive error bound.
+    auto tip = test::scene_from_string(ortho_scene(
+        "Shape \"curve\" \"point3 P\" [ -3 0 0  -1 0 0  1 0 0  3 0 0 ] \"float width0\" 0.5 "
+        "\"float width1\" 0\n"));
+    for (float x : {2.9f, 2.99f, 2.999f}) {
+        CAPTURE(x);
+        auto hit = tip->geometry->intersect(Ray{{x, 0.f, 5.f}, {0.f, 0.f, -1.f}, kInfinity});
+        REQUIRE(hit);
+        CHECK(std::isfinite(hit->uv.y));
+        CHECK(hit->uv.y >= 0.f);
+        CHECK(hit->uv.y <= 1.f);
+        CHECK(hit->p_error.x > 0.f);
+        CHECK(std::isfinite(hit->n.z));
+    }
+    // Opposite normals at a ribbon's ends (pbrt-v4's slerp divides by zero there): the ribbon
+    // turns half a revolution about its tangent; every hit is finite, and so is the image.
+    auto twist = test::scene_from_string(ortho_scene(
+        "LightSource \"infinite\" \"rgb L\" [ 1 1 1 ]\n"
+        "Shape \"curve\" \"point3 P\" [ -3 0 0  -1 0 0  1 0 0  3 0 0 ] \"float width\" 0.5 "
+        "\"string type\" \"ribbon\" \"normal N\" [ 0 0 1  0 0 -1 ]\n"));
+    auto hit = twist->geometry->intersect(Ray{{-2.9f, 0.f, 5.f}, {0.f, 0.f, -1.f}, kInfinity});
+    REQUIRE(hit);
+    CHECK(std::isfinite(hit->n.x + hit->n.y + hit->n.z));
+    CHECK(std::isfinite(hit->uv.y));
+    sampling::Film film(uint32_t(twist->settings.width), uint32_t(twist->settings.height));
+    render_scene(*twist, film, 1, 0.0, true, nullptr);
+    CHECK(film.nan_count() == 0);
+    sampling::RgbImage img(film.width(), film.height(), film.beauty_rgb());
+    double lo = 1, hi = 0;
+    for (float v : img.data) {
+        lo = std::min(lo, double(v));
+        hi = std::max(hi, double(v));
+    }
+    CHECK(lo >= 0.0);
+    CHECK(hi <= 1.0 + 1e-5);
+    CHECK(lo < 0.5);  // the ribbon is seen where it faces the view
+    // Constant alpha 0: invisible, as in pbrt-v4.
+    CHECK(uncovered("Shape \"curve\" \"point3 P\" [ -3 0 0  -1 0 0  1 0 0  3 0 0 ] "
+                    "\"float width\" 0.5 \"float alpha\" 0\n") == 1.0);
 }
 
 TEST_CASE("curve: coverage of straight curves in every basis and degree is their width") {
