@@ -106,6 +106,16 @@ class GeometryGroup {
     std::vector<std::unique_ptr<CurveSet>> curves;
     std::vector<Record> records;  // by geomID
     bool committed = false;
+
+    /// Commits `geom`, attaches it to this group's scene (which takes the reference) and
+    /// records what it is under its geomID.
+    void attach(RTCGeometry geom, Record::Kind kind, int index) {
+        rtcCommitGeometry(geom);
+        unsigned id = rtcAttachGeometry(scene, geom);
+        rtcReleaseGeometry(geom);
+        if (records.size() <= id) records.resize(id + 1);
+        records[id] = {kind, index};
+    }
 };
 
 Vec3f TriangleMesh::oriented_normal(size_t tri) const {
@@ -232,11 +242,7 @@ void Geometry::add_mesh(int group, TriangleMesh mesh) {
         rtcSetGeometryIntersectFilterFunction(geom, alpha_filter);
         rtcSetGeometryOccludedFilterFunction(geom, alpha_filter);
     }
-    rtcCommitGeometry(geom);
-    unsigned id = rtcAttachGeometry(g.scene, geom);
-    rtcReleaseGeometry(geom);
-    if (g.records.size() <= id) g.records.resize(id + 1);
-    g.records[id] = {GeometryGroup::Record::Kind::Mesh, int(g.meshes.size())};
+    g.attach(geom, GeometryGroup::Record::Kind::Mesh, int(g.meshes.size()));
     if (group == 0) triangle_count_ += m->triangle_count();
     g.meshes.push_back(std::move(m));
 }
@@ -322,11 +328,7 @@ void Geometry::add_quadric(int group, const Quadric &quad) {
     rtcSetGeometryBoundsFunction(geom, quadric_bounds, nullptr);
     rtcSetGeometryIntersectFunction(geom, quadric_intersect);
     rtcSetGeometryOccludedFunction(geom, quadric_occluded);
-    rtcCommitGeometry(geom);
-    unsigned id = rtcAttachGeometry(g.scene, geom);
-    rtcReleaseGeometry(geom);
-    if (g.records.size() <= id) g.records.resize(id + 1);
-    g.records[id] = {GeometryGroup::Record::Kind::Quadric, int(g.quadrics.size())};
+    g.attach(geom, GeometryGroup::Record::Kind::Quadric, int(g.quadrics.size()));
     g.quadrics.push_back(std::move(q));
 }
 
@@ -405,11 +407,7 @@ void Geometry::add_curves(int group, CurveSet curves) {
         }
     }
     rtcSetGeometryTessellationRate(geom, float(clamp(c->tessellation, 1, 16)));
-    rtcCommitGeometry(geom);
-    unsigned id = rtcAttachGeometry(g.scene, geom);
-    rtcReleaseGeometry(geom);
-    if (g.records.size() <= id) g.records.resize(id + 1);
-    g.records[id] = {GeometryGroup::Record::Kind::Curves, int(g.curves.size())};
+    g.attach(geom, GeometryGroup::Record::Kind::Curves, int(g.curves.size()));
     g.curves.push_back(std::move(c));
 }
 
@@ -427,12 +425,8 @@ void Geometry::add_instance(int proto, const Transform &render_from_instance) {
     for (int c = 0; c < 4; ++c)
         for (int r = 0; r < 3; ++r) xfm[c * 3 + r] = float(m.m[r][c]);
     rtcSetGeometryTransform(geom, 0, RTC_FORMAT_FLOAT3X4_COLUMN_MAJOR, xfm);
-    rtcCommitGeometry(geom);
     GeometryGroup &top = *groups_[0];
-    unsigned id = rtcAttachGeometry(top.scene, geom);
-    rtcReleaseGeometry(geom);
-    if (top.records.size() <= id) top.records.resize(id + 1);
-    top.records[id] = {GeometryGroup::Record::Kind::Instance, int(instances_.size())};
+    top.attach(geom, GeometryGroup::Record::Kind::Instance, int(instances_.size()));
     instances_.push_back({proto, render_from_instance});
     ++instance_count_;
 }

@@ -692,11 +692,7 @@ struct Builder {
         }
         // Widths are in object space: scaled by the transform's mean scale (exact for uniform
         // scales, where pbrt-v4's object-space intersection gives the same width).
-        const Mat4 &m = xf.matrix();
-        const double det = m.m[0][0] * (m.m[1][1] * m.m[2][2] - m.m[1][2] * m.m[2][1]) -
-                           m.m[0][1] * (m.m[1][0] * m.m[2][2] - m.m[1][2] * m.m[2][0]) +
-                           m.m[0][2] * (m.m[1][0] * m.m[2][1] - m.m[1][1] * m.m[2][0]);
-        const float scale = float(std::cbrt(std::abs(det)));
+        const float scale = float(std::cbrt(std::abs(xf.determinant3())));
         auto lerp3 = [](float t, Vec3f a, Vec3f b) { return a * (1 - t) + b * t; };
         for (size_t seg = 0; seg < nseg; ++seg) {
             std::array<Vec3f, 4> b;

@@ -100,14 +100,15 @@ class Transform {
                 float(inv_.m[0][1] * n.x + inv_.m[1][1] * n.y + inv_.m[2][1] * n.z),
                 float(inv_.m[0][2] * n.x + inv_.m[1][2] * n.y + inv_.m[2][2] * n.z)};
     }
-    /// True if the transform flips handedness (negative determinant of the upper 3x3).
-    bool swaps_handedness() const {
+    /// Determinant of the upper 3x3 (the volume scale; negative when handedness flips).
+    double determinant3() const {
         const auto &a = m_.m;
-        double det = a[0][0] * (a[1][1] * a[2][2] - a[1][2] * a[2][1]) -
-                     a[0][1] * (a[1][0] * a[2][2] - a[1][2] * a[2][0]) +
-                     a[0][2] * (a[1][0] * a[2][1] - a[1][1] * a[2][0]);
-        return det < 0;
+        return a[0][0] * (a[1][1] * a[2][2] - a[1][2] * a[2][1]) -
+               a[0][1] * (a[1][0] * a[2][2] - a[1][2] * a[2][0]) +
+               a[0][2] * (a[1][0] * a[2][1] - a[1][1] * a[2][0]);
     }
+    /// True if the transform flips handedness (negative determinant of the upper 3x3).
+    bool swaps_handedness() const { return determinant3() < 0; }
 
     static Transform translate(Vec3f d) {
         Mat4 m;
