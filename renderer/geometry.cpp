@@ -341,7 +341,7 @@ Vec3f slerp(float t, Vec3f a, Vec3f b, Vec3f axis) {
     float theta = std::acos(c), s = std::sin(theta);
     if (s > 1e-4f)
         return a * (std::sin((1 - t) * theta) / s) + b * (std::sin(t * theta) / s);
-    if (c > 0.f) return normalize(a * (1 - t) + b * t);
+    if (c > 0.f) return normalize(lerp(t, a, b));
     Vec3f perp = cross(axis, a);
     perp = length_squared(perp) > 0.f ? normalize(perp) : Frame::from_z(a).x;
     return a * std::cos(t * kPi) + perp * std::sin(t * kPi);
@@ -352,10 +352,8 @@ Vec3f slerp(float t, Vec3f a, Vec3f b, Vec3f axis) {
 /// The control points of the cubic Bézier `p` restricted to [u0, u1] (blossoms).
 std::array<Vec3f, 4> bezier_piece(const Vec3f *p, float u0, float u1) {
     auto blossom = [&](float a, float b, float c) {
-        Vec3f q0 = p[0] * (1 - a) + p[1] * a, q1 = p[1] * (1 - a) + p[2] * a,
-              q2 = p[2] * (1 - a) + p[3] * a;
-        Vec3f r0 = q0 * (1 - b) + q1 * b, r1 = q1 * (1 - b) + q2 * b;
-        return r0 * (1 - c) + r1 * c;
+        Vec3f q0 = lerp(a, p[0], p[1]), q1 = lerp(a, p[1], p[2]), q2 = lerp(a, p[2], p[3]);
+        return lerp(c, lerp(b, q0, q1), lerp(b, q1, q2));
     };
     if (u0 == 0.f && u1 == 1.f) return {p[0], p[1], p[2], p[3]};
     return {blossom(u0, u0, u0), blossom(u0, u0, u1), blossom(u0, u1, u1), blossom(u1, u1, u1)};
@@ -652,8 +650,6 @@ void fill_quadric(const Quadric &q, Vec3f p_world, SurfaceInteraction &si) {
     si.area_light = q.light;
 }
 
-Vec3f lerp3(float t, Vec3f a, Vec3f b) { return a * (1 - t) + b * t; }
-
 /// The hit of ray (o, d) at t on Embree primitive `prim` at its curve parameter u, all in the
 /// curve set's space (pbrt-v4 Curve::IntersectSegment's interaction).
 void fill_curve(const CurveSet &c, unsigned prim, float u, Vec3f o, Vec3f d, float t,
@@ -663,9 +659,9 @@ void fill_curve(const CurveSet &c, unsigned prim, float u, Vec3f o, Vec3f d, flo
     u = (float(prim % splits) + clamp(u, 0.f, 1.f)) / float(splits);
     const Vec3f *cp = &c.cp[4 * size_t(seg)];
     // De Casteljau: the point and the tangent of the cubic Bézier.
-    Vec3f a = lerp3(u, cp[0], cp[1]), b = lerp3(u, cp[1], cp[2]), e = lerp3(u, cp[2], cp[3]);
-    Vec3f ab = lerp3(u, a, b), be = lerp3(u, b, e);
-    Vec3f centre = lerp3(u, ab, be);
+    Vec3f a = lerp(u, cp[0], cp[1]), b = lerp(u, cp[1], cp[2]), e = lerp(u, cp[2], cp[3]);
+    Vec3f ab = lerp(u, a, b), be = lerp(u, b, e);
+    Vec3f centre = lerp(u, ab, be);
     Vec3f dpdu = (be - ab) * 3.f;
     if (length_squared(dpdu) == 0.f) dpdu = cp[3] - cp[0];
     if (length_squared(dpdu) == 0.f) dpdu = {1, 0, 0};

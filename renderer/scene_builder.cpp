@@ -560,15 +560,7 @@ struct Builder {
             const ParamSet &ps = sd.params;
             // Constant alpha 0: the shape is invisible (pbrt-v4) -- not added to the geometry;
             // an emitter stays as a sample-only light. Other alpha values are not supported.
-            bool invisible = false;
-            if (const Param *a = ps.find("alpha")) {
-                a->used = true;
-                bool constant = a->type == "float" && !a->numbers.empty();
-                invisible = constant && a->numbers[0] <= 0.0;
-                if (!(constant && (a->numbers[0] >= 1.0 || invisible)))
-                    warn(a->loc, "\"alpha\" on spheres, cylinders and disks is not "
-                                 "supported except 0 and 1; rendered opaque");
-            }
+            const bool invisible = hidden_by_alpha(ps, "spheres, cylinders and disks");
             Quadric q;
             q.render_from_object = xf;
             q.material = material;
@@ -607,6 +599,20 @@ struct Builder {
         }
         warn(sd.loc, "Shape \"" + sd.type + "\" is not supported; it is not rendered");
         for (const Param &p : sd.params.params) p.used = true;
+    }
+
+    /// Shapes without an alpha test: constant alpha 0 hides them (pbrt-v4); any other alpha
+    /// than 0 or 1 warns that `shapes` render opaque.
+    static bool hidden_by_alpha(const ParamSet &ps, const std::string &shapes) {
+        const Param *a = ps.find("alpha");
+        if (!a) return false;
+        a->used = true;
+        const bool constant = a->type == "float" && !a->numbers.empty();
+        const bool invisible = constant && a->numbers[0] <= 0.0;
+        if (!(constant && (a->numbers[0] >= 1.0 || invisible)))
+            warn(a->loc, "\"alpha\" on " + shapes +
+                             " is not supported except 0 and 1; rendered opaque");
+        return invisible;
     }
 
     /// pbrt-v4 "curve" (CreateCurves): Bézier or uniform B-spline control points of degree 2
@@ -675,15 +681,7 @@ struct Builder {
         // while intersecting; Embree tessellates each piece at the rate set below.
         const int split_depth = std::clamp(ps.get_int("splitdepth", 3), 0, 10);
         // Constant alpha 0 hides the curve (pbrt-v4); other alpha values are not supported.
-        bool invisible = false;
-        if (const Param *a = ps.find("alpha")) {
-            a->used = true;
-            const bool constant = a->type == "float" && !a->numbers.empty();
-            invisible = constant && a->numbers[0] <= 0.0;
-            if (!(constant && (a->numbers[0] >= 1.0 || invisible)))
-                warn(a->loc, "\"alpha\" on curves is not supported except 0 and 1; rendered "
-                             "opaque");
-        }
+        const bool invisible = hidden_by_alpha(ps, "curves");
         if (emissive) {
             // pbrt-v4 cannot sample points on curves, so they cannot be area lights there.
             warn(sd.area_light_loc, "area lights on curves are not supported; the curve does "
@@ -693,24 +691,23 @@ struct Builder {
         // Widths are in object space: scaled by the transform's mean scale (exact for uniform
         // scales, where pbrt-v4's object-space intersection gives the same width).
         const float scale = float(std::cbrt(std::abs(xf.determinant3())));
-        auto lerp3 = [](float t, Vec3f a, Vec3f b) { return a * (1 - t) + b * t; };
         for (size_t seg = 0; seg < nseg; ++seg) {
             std::array<Vec3f, 4> b;
             if (basis == "bezier") {
                 const Vec3f *q = &cp[seg * deg];
                 if (degree == 2)
-                    b = {q[0], lerp3(2.f / 3.f, q[0], q[1]), lerp3(1.f / 3.f, q[1], q[2]), q[2]};
+                    b = {q[0], lerp(2.f / 3.f, q[0], q[1]), lerp(1.f / 3.f, q[1], q[2]), q[2]};
                 else
                     b = {q[0], q[1], q[2], q[3]};
             } else if (degree == 2) {
                 const Vec3f *q = &cp[seg];
-                Vec3f p11 = lerp3(0.5f, q[0], q[1]), p22 = lerp3(0.5f, q[1], q[2]);
-                b = {p11, lerp3(2.f / 3.f, p11, q[1]), lerp3(1.f / 3.f, q[1], p22), p22};
+                Vec3f p11 = lerp(0.5f, q[0], q[1]), p22 = lerp(0.5f, q[1], q[2]);
+                b = {p11, lerp(2.f / 3.f, p11, q[1]), lerp(1.f / 3.f, q[1], p22), p22};
             } else {
                 const Vec3f *q = &cp[seg];
-                Vec3f p122 = lerp3(2.f / 3.f, q[0], q[1]), p223 = lerp3(1.f / 3.f, q[1], q[2]);
-                Vec3f p233 = lerp3(2.f / 3.f, q[1], q[2]), p334 = lerp3(1.f / 3.f, q[2], q[3]);
-                b = {lerp3(0.5f, p122, p223), p223, p233, lerp3(0.5f, p233, p334)};
+                Vec3f p122 = lerp(2.f / 3.f, q[0], q[1]), p223 = lerp(1.f / 3.f, q[1], q[2]);
+                Vec3f p233 = lerp(2.f / 3.f, q[1], q[2]), p334 = lerp(1.f / 3.f, q[2], q[3]);
+                b = {lerp(0.5f, p122, p223), p223, p233, lerp(0.5f, p233, p334)};
             }
             for (const Vec3f &p : b) c.cp.push_back(xf.point(p));
             const float t0 = float(seg) / float(nseg), t1 = float(seg + 1) / float(nseg);

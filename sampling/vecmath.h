@@ -80,6 +80,7 @@ inline float max_component(Vec3f a) { return std::max(a.x, std::max(a.y, a.z)); 
 inline float distance(Vec3f a, Vec3f b) { return length(a - b); }
 /// Flip `v` so that it lies in the hemisphere of `ref`.
 inline Vec3f face_forward(Vec3f v, Vec3f ref) { return dot(v, ref) < 0.f ? -v : v; }
+inline Vec3f lerp(float t, Vec3f a, Vec3f b) { return a * (1 - t) + b * t; }
 
 /// Linear RGB triple (radiance, reflectance, throughput). Rec.709 / sRGB primaries, linear.
 struct Rgb {
