@@ -577,6 +577,10 @@ Rgb Bsdf::albedo_hint() const {
         Rgb operator()(const DielectricBxdf &) const { return Rgb(1.f); }
         Rgb operator()(const ThinDielectricBxdf &) const { return Rgb(1.f); }
         Rgb operator()(const CoatedDiffuseBxdf &b) const { return b.reflectance; }
+        // The colour a fiber of this absorption shows (exp(-sigma_a) per diameter crossed).
+        Rgb operator()(const HairBxdf &b) const {
+            return Rgb(std::exp(-b.sigma_a.r), std::exp(-b.sigma_a.g), std::exp(-b.sigma_a.b));
+        }
     };
     return std::visit(Visitor{}, bxdf_);
 }

@@ -1,5 +1,5 @@
-// BSDFs: the scattering models behind pbrt-v4's "diffuse", "conductor", "dielectric" and
-// "coateddiffuse" materials, in RGB.
+// BSDFs: the scattering models behind pbrt-v4's "diffuse", "conductor", "dielectric",
+// "thindielectric", "coateddiffuse" and "hair" materials, in RGB.
 //
 // Conventions (pbrt-v4, Pharr/Jakob/Humphreys 4th ed., chapter 9):
 // - Each Bxdf works in the local shading frame: z is the shading normal, x the dpdu direction
@@ -185,6 +185,47 @@ struct CoatedDiffuseBxdf {
     float coat_pdf(Vec3f wo, Vec3f wi) const;
 };
 
+/// pbrt-v4 "hair": the scattering model of Chiang, Bitterli, Tappan and Burley 2016 ("A
+/// Practical and Controllable Hair and Fur Model for Production Path Tracing"), as pbrt-v4's
+/// HairBxDF implements it (PBRT 4th ed., section 9.9), with RGB absorption instead of spectral.
+///
+/// Local frame: x runs along the fiber (the curve's dpdu), z is the shading normal. A direction
+/// w has longitudinal angle theta with sin theta = w.x and azimuth phi = atan2(w.z, w.y).
+/// f = sum over p = 0, 1, 2 (R, TT, TRT) of Mp(theta_i, theta_o rotated by the scale tilt
+/// -2 alpha, alpha, 4 alpha) Ap(p) Np(phi, p), plus the remaining orders Mp Ap(3) / (2 pi);
+/// f includes pbrt's division by |cos theta_i| to the shading normal, so f |wi.z| is the
+/// fiber's scattering function. h in [-1, 1] is where the ray met the fiber's width, sigma_a the
+/// absorption per unit fiber diameter, beta_m and beta_n the longitudinal and azimuthal
+/// roughness in [0, 1], alpha the scale tilt in degrees, eta the fiber's IOR. Sampling picks a
+/// lobe in proportion to the channel mean of Ap and samples Mp and the trimmed logistic Np
+/// exactly; pdf() is the matching mixture. Flags: glossy reflection, as in pbrt-v4 (the lobes
+/// scatter to the whole sphere). Compact (nine floats): the per-lobe constants are derived on
+/// use.
+struct HairBxdf {
+    float h = 0.f;
+    float eta = 1.55f;
+    Rgb sigma_a{0.f};
+    float v0 = 0.f;      ///< longitudinal variance of the R lobe (TT: v0 / 4, TRT and rest: 4 v0)
+    float s = 0.f;       ///< azimuthal logistic scale
+    float sin_alpha = 0.f, cos_alpha = 1.f;  ///< of the scale tilt
+
+    HairBxdf() : HairBxdf(0.f, 1.55f, Rgb(0.f), 0.3f, 0.3f, 2.f) {}
+    /// pbrt-v4 HairBxDF(h, eta, sigma_a, beta_m, beta_n, alpha): h is clamped to [-1, 1] and
+    /// the roughnesses to [0, 1].
+    HairBxdf(float h, float eta, Rgb sigma_a, float beta_m, float beta_n, float alpha_degrees);
+
+    Rgb f(Vec3f wo, Vec3f wi, TransportMode mode) const;
+    std::optional<BsdfSample> sample_f(Vec3f wo, float uc, Vec2f u, TransportMode mode) const;
+    float pdf(Vec3f wo, Vec3f wi, TransportMode mode) const;
+    uint8_t flags() const { return kBxdfReflection | kBxdfGlossy; }
+
+    /// pbrt-v4 SigmaAFromConcentration: absorption of eumelanin and pheomelanin concentrations.
+    static Rgb sigma_a_from_concentration(float eumelanin, float pheomelanin);
+    /// pbrt-v4 SigmaAFromReflectance: the absorption that gives roughly colour c (in [0, 1])
+    /// after multiple scattering in a fiber of azimuthal roughness beta_n.
+    static Rgb sigma_a_from_reflectance(Rgb c, float beta_n);
+};
+
 /// Cosine-weighted hemispherical average of the dielectric Fresnel reflectance seen from the
 /// outside, Fdr_ext(eta) = 2 int_0^1 F(mu, eta) mu dmu, for eta >= 1 (tabulated once; thread-safe).
 float fresnel_diffuse_reflectance(float eta);
@@ -242,7 +283,7 @@ struct LambertianBsdf {
 };
 
 using Bxdf = std::variant<DiffuseBxdf, ConductorBxdf, DielectricBxdf, ThinDielectricBxdf,
-                          CoatedDiffuseBxdf>;
+                          CoatedDiffuseBxdf, HairBxdf>;
 
 /// A Bxdf with its shading frame; takes and returns world-space unit directions. Directions
 /// passed in are normalised here. A direction exactly in the tangent plane (wo.z == 0 locally)

@@ -184,6 +184,50 @@ class CoatedDiffuseMaterial final : public Material {
     Roughness rough_;
 };
 
+/// pbrt-v4 "hair" (HairMaterial): a HairBxdf whose absorption comes from "sigma_a", else from
+/// a colour, else from melanin concentrations (exactly one of the three is set). h is
+/// -1 + 2 v: v runs across a curve's width.
+class HairMaterial final : public Material {
+  public:
+    HairMaterial(const SpectrumTexture *sigma_a, const SpectrumTexture *color,
+                 const FloatTexture *eumelanin, const FloatTexture *pheomelanin,
+                 const FloatTexture *eta, const FloatTexture *beta_m, const FloatTexture *beta_n,
+                 const FloatTexture *alpha)
+        : sigma_a_(sigma_a), color_(color), eumelanin_(eumelanin), pheomelanin_(pheomelanin),
+          eta_(eta), beta_m_(beta_m), beta_n_(beta_n), alpha_(alpha) {}
+    std::optional<Bsdf> get_bsdf(const SurfaceInteraction &si,
+                                 const TextureEvalContext &tc) const override {
+        // pbrt-v4 HairMaterial::GetBxDF.
+        float bm = clamp(beta_m_->evaluate(tc), 1e-2f, 1.f);
+        float bn = clamp(beta_n_->evaluate(tc), 1e-2f, 1.f);
+        Rgb sigma_a;
+        if (sigma_a_) {
+            Rgb v = sigma_a_->evaluate(tc);
+            sigma_a = Rgb(std::max(v.r, 0.f), std::max(v.g, 0.f), std::max(v.b, 0.f));
+        } else if (color_) {
+            sigma_a = HairBxdf::sigma_a_from_reflectance(
+                DiffuseMaterial::clamp_unit(color_->evaluate(tc)), bn);
+        } else {
+            sigma_a = HairBxdf::sigma_a_from_concentration(
+                std::max(0.f, eumelanin_->evaluate(tc)), std::max(0.f, pheomelanin_->evaluate(tc)));
+        }
+        HairBxdf b(-1.f + 2.f * si.uv.y, eta_->evaluate(tc), sigma_a, bm, bn,
+                   alpha_->evaluate(tc));
+        return Bsdf(frame(si, tc), b);
+    }
+    uint8_t possible_flags() const override { return kBxdfReflection | kBxdfGlossy; }
+    bool reads_texture() const override {
+        return varying(sigma_a_) || varying(color_) || varying(eumelanin_) ||
+               varying(pheomelanin_) || varying(eta_) || varying(beta_m_) || varying(beta_n_) ||
+               varying(alpha_);
+    }
+    std::string describe() const override { return "hair"; }
+
+  private:
+    const SpectrumTexture *sigma_a_, *color_;
+    const FloatTexture *eumelanin_, *pheomelanin_, *eta_, *beta_m_, *beta_n_, *alpha_;
+};
+
 class InterfaceMaterial final : public Material {
   public:
     std::optional<Bsdf> get_bsdf(const SurfaceInteraction &,
@@ -460,6 +504,46 @@ int MaterialSet::build(const std::string &name, const std::map<std::string, Mate
             tex.spectrum_param(ps, "albedo", Rgb(0.f), false),
             tex.float_param(ps, "thickness", 0.01f), tex.float_param(ps, "g", 0.f),
             scalar_eta(ps, d.loc, 1.5f), Roughness::from(ps, tex));
+    } else if (type == "hair") {
+        // pbrt-v4 HairMaterial::Create: the first of sigma_a, a colour and the melanin
+        // concentrations that is given wins; without any, brown hair (eumelanin 1.3). Newer
+        // pbrt-v4 names the colour "reflectance", older "color": both are read.
+        const Param *colour = ps.find("reflectance");
+        std::string colour_name = "reflectance";
+        if (const Param *old_name = ps.find("color")) {
+            if (colour) {
+                warn(old_name->loc, "hair: \"color\" ignored since \"reflectance\" was given");
+                old_name->used = true;
+            } else {
+                colour = old_name;
+                colour_name = "color";
+            }
+        }
+        auto ignore = [&](const Param *p, const std::string &why) {
+            if (!p) return;
+            warn(p->loc, "hair: \"" + p->name + "\" ignored since \"" + why + "\" was given");
+            p->used = true;
+        };
+        const Param *eu = ps.find("eumelanin"), *pheo = ps.find("pheomelanin");
+        const SpectrumTexture *sigma_a = nullptr, *color = nullptr;
+        const FloatTexture *eumelanin = nullptr, *pheomelanin = nullptr;
+        if (ps.find("sigma_a")) {
+            sigma_a = tex.spectrum_param(ps, "sigma_a", std::nullopt, true);
+            ignore(colour, "sigma_a");
+            ignore(eu, "sigma_a");
+            ignore(pheo, "sigma_a");
+        } else if (colour) {
+            color = tex.spectrum_param(ps, colour_name, std::nullopt, false);
+            ignore(eu, colour_name);
+            ignore(pheo, colour_name);
+        } else {
+            eumelanin = tex.float_param(ps, "eumelanin", eu || pheo ? 0.f : 1.3f);
+            pheomelanin = tex.float_param(ps, "pheomelanin", 0.f);
+        }
+        m = std::make_unique<HairMaterial>(
+            sigma_a, color, eumelanin, pheomelanin, tex.float_param(ps, "eta", 1.55f),
+            tex.float_param(ps, "beta_m", 0.3f), tex.float_param(ps, "beta_n", 0.3f),
+            tex.float_param(ps, "alpha", 2.f));
     } else if (type == "interface" || type == "" || type == "none") {
         m = std::make_unique<InterfaceMaterial>();
     } else if (type == "mix") {

@@ -1,8 +1,8 @@
 // pbrt-v4 materials: turn texture-evaluated parameters into a Bsdf at a shading point.
 //
 // Supported: diffuse, conductor, dielectric, thindielectric, coateddiffuse (closed-form layered
-// approximation, see CoatedDiffuseBxdf), interface (no surface: rays pass through), mix
-// (pbrt-v4's deterministic per-point choice). Approximated with a warning naming file:line:
+// approximation, see CoatedDiffuseBxdf), hair (HairBxdf), interface (no surface: rays pass
+// through), mix (pbrt-v4's deterministic per-point choice). Approximated with a warning naming file:line:
 // coatedconductor -> its base conductor (pbrt's "conductor.*" parameters; the coat is dropped),
 // diffusetransmission -> diffuse with pbrt's reflectance default 0.25 and "scale" (no
 // transmission); unknown types -> diffuse 0.5. Every material honours "displacement" (bump
