@@ -544,6 +544,13 @@ int MaterialSet::build(const std::string &name, const std::map<std::string, Mate
             sigma_a, color, eumelanin, pheomelanin, tex.float_param(ps, "eta", 1.55f),
             tex.float_param(ps, "beta_m", 0.3f), tex.float_param(ps, "beta_n", 0.3f),
             tex.float_param(ps, "alpha", 2.f));
+        // pbrt-v4's hair has neither: the shading normal is the fiber's own.
+        if (displacement || normal_map) {
+            warn(d.loc, "hair: \"displacement\" and \"normalmap\" are not supported on hair "
+                        "(pbrt-v4 has neither); ignored");
+            displacement = nullptr;
+            normal_map.reset();
+        }
     } else if (type == "interface" || type == "" || type == "none") {
         m = std::make_unique<InterfaceMaterial>();
     } else if (type == "mix") {
