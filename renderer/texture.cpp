@@ -1,6 +1,7 @@
 // Texture classes, mappings and the image-map cache (see texture.h for the semantics).
 #include "renderer/texture.h"
 #include "renderer/limits.h"
+#include "renderer/noise.h"
 
 #include <OpenImageIO/imagebuf.h>
 #include <OpenImageIO/imagebufalgo.h>
@@ -350,6 +351,114 @@ class BilerpTexture final : public TexBase<T>::type {
   private:
     std::unique_ptr<Mapping2D> map_;
     T v00_, v01_, v10_, v11_;
+};
+
+/// pbrt-v4 "fbm", "wrinkled" and "windy": noise of the texture-space point (the object space of
+/// the Texture statement), band-limited by the transformed footprint.
+class NoiseTexture final : public FloatTexture {
+  public:
+    enum class Kind { Fbm, Wrinkled, Windy };
+    NoiseTexture(Kind kind, const Transform &texture_from_render, int octaves, float omega)
+        : kind_(kind), texture_from_render_(texture_from_render), octaves_(octaves),
+          omega_(omega) {}
+    float evaluate(const TextureEvalContext &ctx) const override {
+        Vec3f p = texture_from_render_.point(ctx.p);
+        Vec3f dpdx = texture_from_render_.vector(ctx.dpdx);
+        Vec3f dpdy = texture_from_render_.vector(ctx.dpdy);
+        switch (kind_) {
+            case Kind::Fbm: return fbm(p, dpdx, dpdy, omega_, octaves_);
+            case Kind::Wrinkled: return turbulence(p, dpdx, dpdy, omega_, octaves_);
+            case Kind::Windy: {
+                // pbrt-v4 WindyTexture: a slow fBm of wind strength scales the waves' fBm.
+                float wind = fbm(p * 0.1f, dpdx * 0.1f, dpdy * 0.1f, 0.5f, 3);
+                float waves = fbm(p, dpdx, dpdy, 0.5f, 6);
+                return std::abs(wind) * waves;
+            }
+        }
+        return 0.f;
+    }
+    std::string describe() const override {
+        const char *names[] = {"fbm", "wrinkled", "windy"};
+        return std::string(names[int(kind_)]) + " (octaves " + std::to_string(octaves_) +
+               ", roughness " + fmt(omega_) + ")";
+    }
+
+  private:
+    Kind kind_;
+    Transform texture_from_render_;
+    int octaves_;
+    float omega_;
+};
+
+/// pbrt-v4 "marble": bands of sin(y + variation fBm) through a cubic Bezier spline of nine
+/// fixed colours (PBRT 4th ed., section 10.6.3).
+class MarbleTexture final : public SpectrumTexture {
+  public:
+    MarbleTexture(const Transform &texture_from_render, int octaves, float omega, float scale,
+                  float variation)
+        : texture_from_render_(texture_from_render), octaves_(octaves), omega_(omega),
+          scale_(scale), variation_(variation) {}
+    Rgb evaluate(const TextureEvalContext &ctx) const override {
+        Vec3f p = texture_from_render_.point(ctx.p) * scale_;
+        Vec3f dpdx = texture_from_render_.vector(ctx.dpdx) * scale_;
+        Vec3f dpdy = texture_from_render_.vector(ctx.dpdy) * scale_;
+        float marble = p.y + variation_ * fbm(p, dpdx, dpdy, omega_, octaves_);
+        float t = 0.5f + 0.5f * std::sin(marble);
+        static const Rgb kColors[] = {{.58f, .58f, .6f}, {.58f, .58f, .6f}, {.58f, .58f, .6f},
+                                      {.5f, .5f, .5f},   {.6f, .59f, .58f}, {.58f, .58f, .6f},
+                                      {.58f, .58f, .6f}, {.2f, .2f, .33f},  {.58f, .58f, .6f}};
+        constexpr int kSegments = 9 - 3;
+        int first = std::min(int(std::floor(t * kSegments)), kSegments - 1);
+        t = t * kSegments - float(first);
+        // de Casteljau on kColors[first .. first + 3].
+        auto lerp_rgb = [](float u, Rgb a, Rgb b) { return (1.f - u) * a + u * b; };
+        const Rgb *c = kColors + first;
+        Rgb a0 = lerp_rgb(t, c[0], c[1]), a1 = lerp_rgb(t, c[1], c[2]), a2 = lerp_rgb(t, c[2], c[3]);
+        Rgb b0 = lerp_rgb(t, a0, a1), b1 = lerp_rgb(t, a1, a2);
+        return 1.5f * lerp_rgb(t, b0, b1);
+    }
+    std::string describe() const override { return "marble"; }
+
+  private:
+    Transform texture_from_render_;
+    int octaves_;
+    float omega_, scale_, variation_;
+};
+
+/// pbrt-v4's polka-dot test: a dot of radius 0.35, jittered by noise, in each unit cell (centred
+/// on integer st) whose noise is positive.
+bool inside_polka_dot(Vec2f st) {
+    int s_cell = int(std::floor(st.x + 0.5f)), t_cell = int(std::floor(st.y + 0.5f));
+    if (!(perlin_noise(float(s_cell) + 0.5f, float(t_cell) + 0.5f) > 0.f)) return false;
+    const float radius = 0.35f, max_shift = 0.5f - radius;
+    float s_center = float(s_cell) + max_shift * perlin_noise(float(s_cell) + 1.5f,
+                                                                float(t_cell) + 2.8f);
+    float t_center = float(t_cell) + max_shift * perlin_noise(float(s_cell) + 4.5f,
+                                                                float(t_cell) + 9.8f);
+    float ds = st.x - s_center, dt = st.y - t_center;
+    return ds * ds + dt * dt < radius * radius;
+}
+
+/// pbrt-v4 "dots". NOTE: pbrt-v4 (like pbrt-v3) hands "inside" to the constructor's outside-dot
+/// argument and "outside" to its inside-dot one, so its dots show "outside" (default 0) and the
+/// rest shows "inside" (default 1). Tessera renders what pbrt-v4 renders.
+template <typename T>
+class DotsTexture final : public TexBase<T>::type {
+  public:
+    DotsTexture(std::unique_ptr<Mapping2D> map, TexPtr<T> in_dots, TexPtr<T> elsewhere)
+        : map_(std::move(map)), in_dots_(in_dots), elsewhere_(elsewhere) {}
+    T evaluate(const TextureEvalContext &ctx) const override {
+        return inside_polka_dot(map_->map(ctx).st) ? in_dots_->evaluate(ctx)
+                                                   : elsewhere_->evaluate(ctx);
+    }
+    std::string describe() const override {
+        return "dots " + map_->describe() + " (" + in_dots_->describe() + " in the dots, " +
+               elsewhere_->describe() + " elsewhere)";
+    }
+
+  private:
+    std::unique_ptr<Mapping2D> map_;
+    TexPtr<T> in_dots_, elsewhere_;
 };
 
 /// Clamps a spectrum texture to [0,1] (pbrt's albedo spectra for reflectances).
@@ -738,7 +847,38 @@ struct TextureSet::Builder {
                 return make(std::make_unique<SpectrumImageTexture>(std::move(map), std::move(img),
                                                                    scale, invert));
         }
-        static const char *kUnsupported[] = {"dots", "fbm", "wrinkled", "windy", "marble", "ptex"};
+        if (cls == "fbm" || cls == "wrinkled" || cls == "windy") {
+            if constexpr (std::is_same_v<T, float>) {
+                using Kind = NoiseTexture::Kind;
+                Kind kind = cls == "fbm" ? Kind::Fbm : (cls == "wrinkled" ? Kind::Wrinkled : Kind::Windy);
+                int octaves = kind == Kind::Windy ? 0 : ps.get_int("octaves", 8);
+                float omega = kind == Kind::Windy ? 0.f : ps.get_float("roughness", 0.5f);
+                if (octaves < 0 || octaves > 64)
+                    throw SceneError(d.loc, cls + ": \"octaves\" must be in [0, 64]");
+                return make(std::make_unique<NoiseTexture>(
+                    kind, d.render_from_texture.inverse(), octaves, omega));
+            } else {
+                throw SceneError(d.loc, "\"" + cls + "\" is a float texture only (pbrt-v4)");
+            }
+        }
+        if (cls == "marble") {
+            if constexpr (std::is_same_v<T, Rgb>) {
+                int octaves = ps.get_int("octaves", 8);
+                if (octaves < 0 || octaves > 64)
+                    throw SceneError(d.loc, "marble: \"octaves\" must be in [0, 64]");
+                return make(std::make_unique<MarbleTexture>(
+                    d.render_from_texture.inverse(), octaves, ps.get_float("roughness", 0.5f),
+                    ps.get_float("scale", 1.f), ps.get_float("variation", 0.2f)));
+            } else {
+                throw SceneError(d.loc, "\"marble\" is a spectrum texture only (pbrt-v4)");
+            }
+        }
+        if (cls == "dots") {
+            // pbrt-v4's swap (see DotsTexture): "outside" shows in the dots.
+            TexPtr<T> inside = tex("inside", T(1.f)), outside = tex("outside", T(0.f));
+            return make(std::make_unique<DotsTexture<T>>(make_mapping(d), outside, inside));
+        }
+        static const char *kUnsupported[] = {"ptex"};
         bool known = false;
         for (const char *k : kUnsupported) known = known || cls == k;
         if (!known) throw SceneError(d.loc, "texture class \"" + cls + "\" unknown");

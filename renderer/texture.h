@@ -3,9 +3,11 @@
 // A TextureSet builds every `Texture` directive of a scene, in declaration order, into float and
 // spectrum (linear RGB) textures that materials evaluate at a shading point. Supported classes:
 // "constant", "scale", "mix", "directionmix", "checkerboard" (2D and 3D, filtered with pbrt-v4's
-// closed-form tent-filtered integral), "bilerp" and "imagemap". The noise classes (dots, fbm,
-// wrinkled, windy, marble) and "ptex" are reported with file:line and replaced by a constant
-// 0.5; an unknown class is a SceneError.
+// closed-form tent-filtered integral), "bilerp", "imagemap", and pbrt-v4's procedural noise
+// classes (renderer/noise.h): "fbm", "wrinkled" and "windy" (float), "marble" (spectrum) and
+// "dots" (both; with pbrt-v4's own swap of "inside" and "outside", see DotsTexture). "ptex" is
+// reported with file:line and replaced by a constant 0.5; an unknown class is a SceneError, and
+// so is a noise class of the wrong kind (pbrt-v4 has no spectrum fbm, no float marble).
 //
 // 2D mappings are pbrt-v4's: "uv" (uscale, vscale, udelta, vdelta), "spherical", "cylindrical"
 // and "planar" (v1, v2, udelta, vdelta); the last three use the inverse of the texture's
