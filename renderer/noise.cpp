@@ -65,13 +65,16 @@ float log2_pbrt(float x) {
 /// The number of octaves the footprint resolves, in [0, max_octaves] (fractional).
 float octave_count(Vec3f dpdx, Vec3f dpdy, int max_octaves) {
     float len2 = std::max(length_squared(dpdx), length_squared(dpdy));
-    return clamp(-1.f - log2_pbrt(len2) / 2.f, 0.f, float(max_octaves));
+    float n = clamp(-1.f - log2_pbrt(len2) / 2.f, 0.f, float(max_octaves));
+    return std::isnan(n) ? 0.f : n;  // a NaN footprint: no octaves (pbrt-v4: undefined)
 }
 
 }  // namespace
 
 float perlin_noise(float x, float y, float z) {
     // pbrt-v4 keeps huge coordinates in range (exact below 2^30).
+    // Not a number or infinite (a huge texture transform): no noise (pbrt-v4: undefined).
+    if (!std::isfinite(x) || !std::isfinite(y) || !std::isfinite(z)) return 0.f;
     constexpr float kWrap = 1073741824.f;
     x = std::fmod(x, kWrap);
     y = std::fmod(y, kWrap);

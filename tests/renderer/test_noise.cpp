@@ -34,6 +34,11 @@ TEST_CASE("noise: pbrt-v4's values, zeros on the lattice, period 256") {
         worst = std::max(worst, std::abs(perlin_noise(x, 0.3f * x, 1.7f)));
     }
     CHECK(worst < 1.f);
+    // Coordinates beyond float's range give 0, not undefined behaviour; huge finite ones wrap.
+    CHECK(perlin_noise(INFINITY, 0.f, 0.f) == 0.f);
+    CHECK(perlin_noise(NAN, 0.f, 0.f) == 0.f);
+    CHECK(std::isfinite(perlin_noise(3e30f, -2e20f, 1e9f)));
+    CHECK(fbm(Vec3f(0.1f, 0.2f, 0.3f), Vec3f(NAN, 0.f, 0.f), Vec3f(0.f, 0.f, 0.f), 0.5f, 8) == 0.f);
     CHECK(std::abs(perlin_noise(0.9999f, 0.4f, 0.6f) - perlin_noise(1.0001f, 0.4f, 0.6f)) < 1e-3f);
 }
 
