@@ -31,8 +31,8 @@ constexpr std::array<uint8_t, 256> kPerm = {
 int perm(int i) { return kPerm[size_t(i & 255)]; }
 
 /// Dot product of the corner's pseudo-random gradient with the offset (dx, dy, dz): one of
-/// twelve edge directions, picked by pbrt-v4's hash (its 12 and 13 repeat directions 0 and 1,
-/// where Perlin's reference repeats 0 and 9... the choice is pbrt's).
+/// twelve edge directions, picked by pbrt-v4's hash. Its hashes 12 to 15 repeat directions 0,
+/// 1, 10 and 11 (Perlin's reference repeats 0, 9, 1 and 11): the values are pbrt-v4's.
 float grad(int x, int y, int z, float dx, float dy, float dz) {
     int h = perm(perm(perm(x) + y) + z) & 15;
     float u = h < 8 || h == 12 || h == 13 ? dx : dy;

@@ -378,9 +378,9 @@ class NoiseTexture final : public FloatTexture {
         return 0.f;
     }
     std::string describe() const override {
-        const char *names[] = {"fbm", "wrinkled", "windy"};
-        return std::string(names[int(kind_)]) + " (octaves " + std::to_string(octaves_) +
-               ", roughness " + fmt(omega_) + ")";
+        if (kind_ == Kind::Windy) return "windy";
+        return std::string(kind_ == Kind::Fbm ? "fbm" : "wrinkled") + " (octaves " +
+               std::to_string(octaves_) + ", roughness " + fmt(omega_) + ")";
     }
 
   private:
@@ -403,6 +403,7 @@ class MarbleTexture final : public SpectrumTexture {
         Vec3f dpdx = texture_from_render_.vector(ctx.dpdx) * scale_;
         Vec3f dpdy = texture_from_render_.vector(ctx.dpdy) * scale_;
         float marble = p.y + variation_ * fbm(p, dpdx, dpdy, omega_, octaves_);
+        if (!std::isfinite(marble)) marble = 0.f;  // a degenerate texture transform
         float t = 0.5f + 0.5f * std::sin(marble);
         static const Rgb kColors[] = {{.58f, .58f, .6f}, {.58f, .58f, .6f}, {.58f, .58f, .6f},
                                       {.5f, .5f, .5f},   {.6f, .59f, .58f}, {.58f, .58f, .6f},
@@ -428,6 +429,8 @@ class MarbleTexture final : public SpectrumTexture {
 /// pbrt-v4's polka-dot test: a dot of radius 0.35, jittered by noise, in each unit cell (centred
 /// on integer st) whose noise is positive.
 bool inside_polka_dot(Vec2f st) {
+    // Cells beyond int's range (or not a number): no dot (pbrt-v4: undefined).
+    if (!(std::abs(st.x) < 1e9f && std::abs(st.y) < 1e9f)) return false;
     int s_cell = int(std::floor(st.x + 0.5f)), t_cell = int(std::floor(st.y + 0.5f));
     if (!(perlin_noise(float(s_cell) + 0.5f, float(t_cell) + 0.5f) > 0.f)) return false;
     const float radius = 0.35f, max_shift = 0.5f - radius;

@@ -124,6 +124,11 @@ TEST_CASE("noise textures: fbm, wrinkled, windy and marble in the Texture statem
     CHECK(m.b == test::Approx(0.879003406).epsilon(1e-4));
     Rgb m2 = set.get_spectrum("m")->evaluate(at_point({-0.6f, 0.2f, -1.45f}));
     CHECK(m2.g == test::Approx(0.870283246).epsilon(1e-4));
+    // The footprint goes through the texture transform too: a render-space dpdx of 0.02 is 0.01
+    // in texture space, which leaves 5.64 octaves.
+    TextureEvalContext c = at_point(p * 2.f);
+    c.dpdx = Vec3f(0.02f, 0.f, 0.f);
+    CHECK(set.get_float("f")->evaluate(c) == test::Approx(0.225091159).epsilon(1e-4));
     // pbrt-v4 has no spectrum fbm and no float marble.
     CHECK_THROWS_AS(TextureSet({noise_desc("x", "spectrum", "fbm")}), SceneError);
     CHECK_THROWS_AS(TextureSet({noise_desc("x", "float", "marble")}), SceneError);
@@ -155,4 +160,42 @@ TEST_CASE("noise textures: dots, with pbrt-v4's inside and outside") {
             in_dots += set.get_spectrum("plain")->evaluate(at_st(0.05f * i, 0.05f * j)).g == 0.f;
     CHECK(double(in_dots) / n > 0.1);
     CHECK(double(in_dots) / n < 0.3);
+}
+
+TEST_CASE("noise textures: parameters are read (octaves, scale, variation, the dots mapping)") {
+    TextureSet set({noise_desc("f2", "float", "fbm", {number("integer", "octaves", 2)}),
+                    noise_desc("w3", "float", "wrinkled", {number("float", "roughness", 0.3)}),
+                    noise_desc("flat", "spectrum", "marble",
+                               {number("float", "variation", 0.0), number("float", "scale", 2.0)}),
+                    noise_desc("d1", "float", "dots"),
+                    noise_desc("d2", "float", "dots", {number("float", "uscale", 2.0)})});
+    const Vec3f p(0.25f, 0.75f, 0.1f), zero(0.f, 0.f, 0.f);
+    CHECK(set.get_float("f2")->evaluate(at_point(p)) == fbm(p, zero, zero, 0.5f, 2));
+    CHECK(set.get_float("f2")->evaluate(at_point(p)) != fbm(p, zero, zero, 0.5f, 8));
+    CHECK(set.get_float("w3")->evaluate(at_point(p)) == turbulence(p, zero, zero, 0.3f, 8));
+    // Without variation, marble is sin(scale y) through the colour spline, whose segment ends
+    // are pbrt-v4's colours times 1.5: sin -1, 0, 1 give colours 0, 3 and 8.
+    auto marble_at_y = [&](float y) { return set.get_spectrum("flat")->evaluate(at_point({0.3f, y, 0.2f})); };
+    Rgb top = marble_at_y(0.25f * kPi), mid = marble_at_y(0.f), bottom = marble_at_y(-0.25f * kPi);
+    CHECK(top.r == test::Approx(1.5 * 0.58).epsilon(1e-5));
+    CHECK(top.b == test::Approx(1.5 * 0.60).epsilon(1e-5));
+    CHECK(mid.g == test::Approx(1.5 * 0.50).epsilon(1e-5));
+    CHECK(bottom.r == test::Approx(1.5 * 0.58).epsilon(1e-4));
+    CHECK(bottom.b == test::Approx(1.5 * 0.60).epsilon(1e-4));
+    // uscale 2 at u is the plain dots at 2u.
+    auto at_st = [](float s, float t) {
+        TextureEvalContext c;
+        c.uv = {s, t};
+        return c;
+    };
+    int differ = 0;
+    for (int i = 0; i < 400; ++i) {
+        float u = 0.0371f * float(i), v = 0.0173f * float(i);
+        CHECK(set.get_float("d2")->evaluate(at_st(u, v)) == set.get_float("d1")->evaluate(at_st(2.f * u, v)));
+        differ += set.get_float("d2")->evaluate(at_st(u, v)) != set.get_float("d1")->evaluate(at_st(u, v));
+    }
+    CHECK(differ > 0);
+    // No dot beyond int's range, and no undefined conversion on the way.
+    CHECK(set.get_float("d1")->evaluate(at_st(3e9f, 1.f)) == 1.f);
+    CHECK(set.get_float("d1")->evaluate(at_st(NAN, 1.f)) == 1.f);
 }
