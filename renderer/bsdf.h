@@ -1,5 +1,5 @@
 // BSDFs: the scattering models behind pbrt-v4's "diffuse", "conductor", "dielectric",
-// "thindielectric", "coateddiffuse" and "hair" materials, in RGB.
+// "thindielectric", "coateddiffuse", "coatedconductor" and "hair" materials, in RGB.
 //
 // Conventions (pbrt-v4, Pharr/Jakob/Humphreys 4th ed., chapter 9):
 // - Each Bxdf works in the local shading frame: z is the shading normal, x the dpdu direction
@@ -185,6 +185,41 @@ struct CoatedDiffuseBxdf {
     float coat_pdf(Vec3f wo, Vec3f wi) const;
 };
 
+/// pbrt-v4 "coatedconductor": a dielectric coat (IOR eta, GGX roughness `coat`) over a conductor
+/// (`base`, its complex IOR relative to the coat: pbrt-v4 divides the conductor's eta and k by
+/// the coat's), with an absorbing layer between them.
+///
+/// NOTE: pbrt-v4 evaluates this stochastically (LayeredBxDF). Here it is closed-form, like
+/// CoatedDiffuseBxdf:
+///   f = f_coat(wo, wi) + T(wo) T(wi) A f_base(wo', wi') / (eta^2 (1 - rho))
+/// where wo', wi' are wo, wi refracted into the coat (Snell's law, tangential components / eta),
+/// T = 1 - F the coat's Fresnel transmittance, A = exp(-absorb (1/cos wo' + 1/cos wi')) the
+/// layer's absorption (absorb = thickness (1 - albedo), as for coateddiffuse), f_base the
+/// conductor's Torrance-Sparrow BRDF inside the coat, and 1 / (1 - rho) the light bounced
+/// between base and coat: rho = F_b(wo') A_pass(wo') (1 - E), E the fraction of the base's lobe
+/// from wo' that crosses the coat (1 - internal Fresnel, 0 under total internal reflection;
+/// tabulated over roughness, angle and eta). With both layers smooth this is exact (one mirror
+/// lobe of weight F + T^2 F_b A / (1 - F F_b A)); with rough layers the returning light is
+/// assumed to leave in the base's lobe, which conserves energy (within the lobe's own masking
+/// loss) but is not reciprocal (rho is wo's), and the coat's roughness does not blur the base.
+/// Two-sided like pbrt-v4's, no transmission.
+/// Sampling: the coat's lobe (or its mirror) with probability p_coat from the Fresnel weights,
+/// else the base's visible normals inside the coat, refracted out (a direction that cannot
+/// leave the coat fails).
+struct CoatedConductorBxdf {
+    float eta = 1.5f;          ///< coat IOR (values < 1 are inverted; 1: no coat)
+    TrowbridgeReitz coat;      ///< the coat's roughness
+    ConductorBxdf base;        ///< the metal, eta and k relative to the coat
+    Rgb absorb{0.01f};         ///< thickness (1 - albedo) per channel
+
+    Rgb f(Vec3f wo, Vec3f wi, TransportMode mode) const;
+    std::optional<BsdfSample> sample_f(Vec3f wo, float uc, Vec2f u, TransportMode mode) const;
+    float pdf(Vec3f wo, Vec3f wi, TransportMode mode) const;
+    uint8_t flags() const;
+    /// Probability of sampling the coat for wo (local, wo.z > 0).
+    float coat_probability(Vec3f wo) const;
+};
+
 /// pbrt-v4 "hair": the scattering model of Chiang, Bitterli, Tappan and Burley 2016 ("A
 /// Practical and Controllable Hair and Fur Model for Production Path Tracing"), as pbrt-v4's
 /// HairBxDF implements it (PBRT 4th ed., section 9.9), with RGB absorption instead of spectral.
@@ -283,7 +318,7 @@ struct LambertianBsdf {
 };
 
 using Bxdf = std::variant<DiffuseBxdf, ConductorBxdf, DielectricBxdf, ThinDielectricBxdf,
-                          CoatedDiffuseBxdf, HairBxdf>;
+                          CoatedDiffuseBxdf, CoatedConductorBxdf, HairBxdf>;
 
 /// A Bxdf with its shading frame; takes and returns world-space unit directions. Directions
 /// passed in are normalised here. A direction exactly in the tangent plane (wo.z == 0 locally)

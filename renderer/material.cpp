@@ -228,6 +228,58 @@ class HairMaterial final : public Material {
     const FloatTexture *eumelanin_, *pheomelanin_, *eta_, *beta_m_, *beta_n_, *alpha_;
 };
 
+/// pbrt-v4 "coatedconductor" (CoatedConductorBxdf): the conductor's eta and k (or the k of a
+/// "reflectance", with eta 1) are divided by the coat's IOR, as pbrt-v4 does.
+class CoatedConductorMaterial final : public Material {
+  public:
+    CoatedConductorMaterial(float coat_eta, Roughness coat_rough, const SpectrumTexture *eta,
+                            const SpectrumTexture *k, const SpectrumTexture *reflectance,
+                            Roughness base_rough, const FloatTexture *thickness,
+                            const SpectrumTexture *albedo)
+        : coat_eta_(coat_eta), coat_rough_(coat_rough), eta_(eta), k_(k),
+          reflectance_(reflectance), base_rough_(base_rough), thickness_(thickness),
+          albedo_(albedo) {}
+    std::optional<Bsdf> get_bsdf(const SurfaceInteraction &si,
+                                 const TextureEvalContext &tc) const override {
+        CoatedConductorBxdf b;
+        // pbrt-v4 treats 0 as 1; a coat below 1 is inverted, as for coateddiffuse.
+        float ieta = coat_eta_ > 0.f && std::isfinite(coat_eta_) ? coat_eta_ : 1.f;
+        if (ieta < 1.f) ieta = 1.f / ieta;
+        b.eta = ieta;
+        b.coat = coat_rough_.eval(tc);
+        Rgb ce(1.f), ck;
+        if (reflectance_) {
+            ck = conductor_k_from_reflectance(reflectance_->evaluate(tc));
+        } else {
+            ce = eta_->evaluate(tc);
+            ck = k_->evaluate(tc);
+        }
+        b.base.eta = ce / ieta;
+        b.base.k = ck / ieta;
+        b.base.distrib = base_rough_.eval(tc);
+        float thick = std::max(0.f, thickness_->evaluate(tc));
+        Rgb albedo = DiffuseMaterial::clamp_unit(albedo_->evaluate(tc));
+        b.absorb = (Rgb(1.f) - albedo) * thick;
+        return Bsdf(frame(si, tc), b);
+    }
+    uint8_t possible_flags() const override {
+        return kBxdfReflection | kBxdfGlossy | kBxdfSpecular;
+    }
+    bool reads_texture() const override {
+        return coat_rough_.varying() || varying(eta_) || varying(k_) || varying(reflectance_) ||
+               base_rough_.varying() || varying(thickness_) || varying(albedo_);
+    }
+    std::string describe() const override { return "coatedconductor"; }
+
+  private:
+    float coat_eta_;
+    Roughness coat_rough_;
+    const SpectrumTexture *eta_, *k_, *reflectance_;
+    Roughness base_rough_;
+    const FloatTexture *thickness_;
+    const SpectrumTexture *albedo_;
+};
+
 class InterfaceMaterial final : public Material {
   public:
     std::optional<Bsdf> get_bsdf(const SurfaceInteraction &,
@@ -287,22 +339,23 @@ Rgb copper(bool k) {
     return k ? kk : eta;
 }
 
-/// Scalar IOR from "eta" given as a float, a float texture (constant only) or a spectrum
-/// (named glass or RGB: dispersion is not modelled, the green value is used).
-float scalar_eta(const ParamSet &ps, const FileLoc &loc, float def) {
-    const Param *p = ps.find("eta");
+/// Scalar IOR from `name` ("eta" by default) given as a float, a float texture (constant only)
+/// or a spectrum (named glass or RGB: dispersion is not modelled, the green value is used).
+float scalar_eta(const ParamSet &ps, const FileLoc &loc, float def,
+                 const std::string &name = "eta") {
+    const Param *p = ps.find(name);
     if (!p) return def;
-    if (p->type == "float") return ps.get_float("eta", def);
+    if (p->type == "float") return ps.get_float(name, def);
     if (p->type == "texture") {
-        warn(loc, "textured \"eta\" is not supported; using " + std::to_string(def));
+        warn(loc, "textured \"" + name + "\" is not supported; using " + std::to_string(def));
         p->used = true;
         return def;
     }
-    std::optional<Rgb> c = ps.get_rgb("eta", false, true);
+    std::optional<Rgb> c = ps.get_rgb(name, false, true);
     if (!c) return def;
     if (std::abs(c->r - c->b) > 1e-3f)
-        warn(loc, "spectrally varying \"eta\" (dispersion) is approximated by its value at the "
-                  "green primary");
+        warn(loc, "spectrally varying \"" + name + "\" (dispersion) is approximated by its "
+                  "value at the green primary");
     return c->g;
 }
 
@@ -439,22 +492,22 @@ int MaterialSet::build(const std::string &name, const std::map<std::string, Mate
     mark("normalmap");
 
     if (type == "coatedconductor") {
-        // pbrt-v4's parameters are "conductor.eta", "conductor.k", "conductor.roughness",
-        // "reflectance" for the base and "interface.*" for the coat, which is dropped.
-        warn(d.loc, "\"coatedconductor\" is approximated by its base conductor (no "
-                    "dielectric coat)");
-        for (const char *coat : {"interface.roughness", "interface.uroughness",
-                                 "interface.vroughness", "interface.eta", "thickness", "albedo",
-                                 "g", "maxdepth", "nsamples"})
-            if (const Param *p = ps.find(coat)) p->used = true;
+        // pbrt-v4 CoatedConductorMaterial::Create: "interface.*" for the coat, "conductor.*" or
+        // "reflectance" for the metal, "thickness" 0.01 and "albedo" 0 for the layer. "g",
+        // "maxdepth" and "nsamples" steer pbrt's random walk: no meaning in the closed form.
+        for (const char *walk : {"g", "maxdepth", "nsamples"})
+            if (const Param *p = ps.find(walk)) p->used = true;
         const SpectrumTexture *refl = tex.spectrum_param(ps, "reflectance", std::nullopt, false);
         const SpectrumTexture *eta = nullptr, *k = nullptr;
         if (!refl) {
             eta = tex.spectrum_param(ps, "conductor.eta", copper(false), true);
             k = tex.spectrum_param(ps, "conductor.k", copper(true), true);
         }
-        m = std::make_unique<ConductorMaterial>(eta, k, refl,
-                                                Roughness::from(ps, tex, "conductor."));
+        m = std::make_unique<CoatedConductorMaterial>(
+            scalar_eta(ps, d.loc, 1.5f, "interface.eta"), Roughness::from(ps, tex, "interface."),
+            eta, k, refl, Roughness::from(ps, tex, "conductor."),
+            tex.float_param(ps, "thickness", 0.01f),
+            tex.spectrum_param(ps, "albedo", Rgb(0.f), false));
     } else if (type == "diffusetransmission") {
         // pbrt-v4 defaults: reflectance 0.25, transmittance 0.25, scale 1.
         warn(d.loc, "\"diffusetransmission\" is approximated by \"diffuse\" (its "

@@ -82,6 +82,18 @@ std::vector<Case> all_cases() {
                  dir_from_theta(th)});
         }
     }
+    for (float ca : {0.f, 0.3f}) {
+        for (float th : {10.f, 60.f, 85.f}) {
+            CoatedConductorBxdf b;
+            b.eta = 1.5f;
+            b.coat = TrowbridgeReitz(ca, ca);
+            b.base = ConductorBxdf{TrowbridgeReitz(0.25f, 0.4f), Rgb(0.15f, 0.4f, 1.2f) / 1.5f,
+                                   Rgb(3.5f, 2.4f, 1.8f) / 1.5f};
+            b.absorb = Rgb(0.02f);
+            cases.push_back({"coatedconductor", "coatedconductor_a" + fmt(ca) + "_t" + fmt(th), b,
+                             dir_from_theta(th)});
+        }
+    }
     cases.push_back({"coated", "coated_below",
                      CoatedDiffuseBxdf(Rgb(0.3f), 1.5f, TrowbridgeReitz(0.5f, 0.5f), 0.1f),
                      -dir_from_theta(60.f)});
@@ -155,6 +167,9 @@ TEST_CASE("chi2: diffuse") {
 }
 TEST_CASE("chi2: conductor (isotropic and anisotropic GGX)") {
     run_family("conductor");
+}
+TEST_CASE("chi2: coated conductor (coat lobe or mirror, base refracted through the coat)") {
+    run_family("coatedconductor");
 }
 TEST_CASE("chi2: rough dielectric (reflection + transmission)") {
     run_family("dielectric");
