@@ -485,6 +485,44 @@ std::optional<BsdfSample> CoatedDiffuseBxdf::sample_f(Vec3f wo, float uc, Vec2f 
 }
 
 // ---------------------------------------------------------------------------------------------
+// DiffuseTransmissionBxdf
+
+Rgb DiffuseTransmissionBxdf::f(Vec3f wo, Vec3f wi, TransportMode) const {
+    return same_hemisphere(wo, wi) ? r * kInvPi : t * kInvPi;
+}
+
+uint8_t DiffuseTransmissionBxdf::flags() const {
+    uint8_t f = kBxdfUnset;
+    if (!r.is_black()) f |= kBxdfReflection | kBxdfDiffuse;
+    if (!t.is_black()) f |= kBxdfTransmission | kBxdfDiffuse;
+    return f;
+}
+
+float DiffuseTransmissionBxdf::pdf(Vec3f wo, Vec3f wi, TransportMode) const {
+    float pr = r.max_value(), pt = t.max_value();
+    if (!(pr + pt > 0.f)) return 0.f;
+    float lobe = same_hemisphere(wo, wi) ? pr : pt;
+    return sampling::cosine_hemisphere_pdf(std::abs(wi.z)) * lobe / (pr + pt);
+}
+
+std::optional<BsdfSample> DiffuseTransmissionBxdf::sample_f(Vec3f wo, float uc, Vec2f u,
+                                                            TransportMode) const {
+    float pr = r.max_value(), pt = t.max_value();
+    if (!(pr + pt > 0.f) || wo.z == 0.f) return std::nullopt;
+    BsdfSample s;
+    s.wi = sampling::square_to_cosine_hemisphere(u);
+    const bool reflect_lobe = uc < pr / (pr + pt);
+    // Reflection on wo's side, transmission on the other.
+    if ((wo.z < 0.f) == reflect_lobe) s.wi.z = -s.wi.z;
+    s.f = (reflect_lobe ? r : t) * kInvPi;
+    s.pdf = sampling::cosine_hemisphere_pdf(std::abs(s.wi.z)) * (reflect_lobe ? pr : pt) /
+            (pr + pt);
+    s.flags = reflect_lobe ? (kBxdfReflection | kBxdfDiffuse) : (kBxdfTransmission | kBxdfDiffuse);
+    s.eta = 1.f;
+    return s;
+}
+
+// ---------------------------------------------------------------------------------------------
 // CoatedConductorBxdf
 
 namespace {
@@ -834,6 +872,7 @@ Rgb Bsdf::albedo_hint() const {
         Rgb operator()(const DielectricBxdf &) const { return Rgb(1.f); }
         Rgb operator()(const ThinDielectricBxdf &) const { return Rgb(1.f); }
         Rgb operator()(const CoatedDiffuseBxdf &b) const { return b.reflectance; }
+        Rgb operator()(const DiffuseTransmissionBxdf &b) const { return b.r; }
         Rgb operator()(const CoatedConductorBxdf &b) const {
             return fr_complex(1.f, b.base.eta, b.base.k);
         }

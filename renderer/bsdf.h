@@ -1,5 +1,6 @@
-// BSDFs: the scattering models behind pbrt-v4's "diffuse", "conductor", "dielectric",
-// "thindielectric", "coateddiffuse", "coatedconductor" and "hair" materials, in RGB.
+// BSDFs: the scattering models behind pbrt-v4's "diffuse", "diffusetransmission", "conductor",
+// "dielectric", "thindielectric", "coateddiffuse", "coatedconductor" and "hair" materials, in
+// RGB.
 //
 // Conventions (pbrt-v4, Pharr/Jakob/Humphreys 4th ed., chapter 9):
 // - Each Bxdf works in the local shading frame: z is the shading normal, x the dpdu direction
@@ -79,6 +80,19 @@ struct BsdfSample {
 /// Lambertian reflection f = reflectance / pi in the hemisphere of wo; cosine-weighted sampling.
 struct DiffuseBxdf {
     Rgb reflectance{0.5f};  ///< hemispherical reflectance in [0, 1] per channel
+
+    Rgb f(Vec3f wo, Vec3f wi, TransportMode mode) const;
+    std::optional<BsdfSample> sample_f(Vec3f wo, float uc, Vec2f u, TransportMode mode) const;
+    float pdf(Vec3f wo, Vec3f wi, TransportMode mode) const;
+    uint8_t flags() const;
+};
+
+/// pbrt-v4 "diffusetransmission": Lambertian reflection r / pi on wo's side and Lambertian
+/// transmission t / pi on the other (no refraction: eta 1), each sampled cosine-weighted with
+/// probability in proportion to the largest channel of r and t (pbrt-v4
+/// DiffuseTransmissionBxDF). Thin translucent surfaces: leaves, paper, lampshades.
+struct DiffuseTransmissionBxdf {
+    Rgb r{0.25f}, t{0.25f};
 
     Rgb f(Vec3f wo, Vec3f wi, TransportMode mode) const;
     std::optional<BsdfSample> sample_f(Vec3f wo, float uc, Vec2f u, TransportMode mode) const;
@@ -318,7 +332,8 @@ struct LambertianBsdf {
 };
 
 using Bxdf = std::variant<DiffuseBxdf, ConductorBxdf, DielectricBxdf, ThinDielectricBxdf,
-                          CoatedDiffuseBxdf, CoatedConductorBxdf, HairBxdf>;
+                          CoatedDiffuseBxdf, CoatedConductorBxdf, HairBxdf,
+                          DiffuseTransmissionBxdf>;
 
 /// A Bxdf with its shading frame; takes and returns world-space unit directions. Directions
 /// passed in are normalised here. A direction exactly in the tangent plane (wo.z == 0 locally)

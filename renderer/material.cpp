@@ -228,6 +228,30 @@ class HairMaterial final : public Material {
     const FloatTexture *eumelanin_, *pheomelanin_, *eta_, *beta_m_, *beta_n_, *alpha_;
 };
 
+/// pbrt-v4 "diffusetransmission" (DiffuseTransmissionBxdf).
+class DiffuseTransmissionMaterial final : public Material {
+  public:
+    DiffuseTransmissionMaterial(const SpectrumTexture *reflectance,
+                                const SpectrumTexture *transmittance, float scale)
+        : reflectance_(reflectance), transmittance_(transmittance), scale_(scale) {}
+    std::optional<Bsdf> get_bsdf(const SurfaceInteraction &si,
+                                 const TextureEvalContext &tc) const override {
+        DiffuseTransmissionBxdf b;
+        b.r = DiffuseMaterial::clamp_unit(reflectance_->evaluate(tc) * scale_);
+        b.t = DiffuseMaterial::clamp_unit(transmittance_->evaluate(tc) * scale_);
+        return Bsdf(frame(si, tc), b);
+    }
+    uint8_t possible_flags() const override {
+        return kBxdfReflection | kBxdfTransmission | kBxdfDiffuse;
+    }
+    bool reads_texture() const override { return varying(reflectance_) || varying(transmittance_); }
+    std::string describe() const override { return "diffusetransmission"; }
+
+  private:
+    const SpectrumTexture *reflectance_, *transmittance_;
+    float scale_;
+};
+
 /// pbrt-v4 "coatedconductor" (CoatedConductorBxdf): the conductor's eta and k (or the k of a
 /// "reflectance", with eta 1) are divided by the coat's IOR, as pbrt-v4 does.
 class CoatedConductorMaterial final : public Material {
@@ -509,25 +533,12 @@ int MaterialSet::build(const std::string &name, const std::map<std::string, Mate
             tex.float_param(ps, "thickness", 0.01f),
             tex.spectrum_param(ps, "albedo", Rgb(0.f), false));
     } else if (type == "diffusetransmission") {
-        // pbrt-v4 defaults: reflectance 0.25, transmittance 0.25, scale 1.
-        warn(d.loc, "\"diffusetransmission\" is approximated by \"diffuse\" (its "
-                    "transmission is dropped)");
-        if (const Param *p = ps.find("transmittance")) p->used = true;
-        // pbrt-v4 reflects clamp(scale * reflectance, 0, 1).
-        float scale = ps.get_float("scale", 1.f);
-        if (!ps.get_texture("reflectance").empty()) {
-            if (scale != 1.f)
-                warn(ps.find("scale")->loc, "\"diffusetransmission\" \"scale\" of a textured "
-                                            "reflectance is not supported; ignored");
-            m = std::make_unique<DiffuseMaterial>(
-                tex.spectrum_param(ps, "reflectance", std::nullopt, false));
-        } else {
-            Rgb r(0.25f);
-            if (std::optional<Rgb> c = ps.get_rgb("reflectance", false, false)) r = *c;
-            r *= scale;
-            r = Rgb(clamp(r.r, 0.f, 1.f), clamp(r.g, 0.f, 1.f), clamp(r.b, 0.f, 1.f));
-            m = std::make_unique<DiffuseMaterial>(tex.spectrum_param(ParamSet{}, "", r, false));
-        }
+        // pbrt-v4 DiffuseTransmissionMaterial: reflectance 0.25, transmittance 0.25, both times
+        // "scale" (a float, 1) and clamped to [0, 1].
+        m = std::make_unique<DiffuseTransmissionMaterial>(
+            tex.spectrum_param(ps, "reflectance", Rgb(0.25f), true),
+            tex.spectrum_param(ps, "transmittance", Rgb(0.25f), true),
+            ps.get_float("scale", 1.f));
     }
 
     if (m) {

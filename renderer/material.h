@@ -1,10 +1,10 @@
 // pbrt-v4 materials: turn texture-evaluated parameters into a Bsdf at a shading point.
 //
-// Supported: diffuse, conductor, dielectric, thindielectric, coateddiffuse and coatedconductor
-// (closed-form layered approximations, see CoatedDiffuseBxdf and CoatedConductorBxdf), hair
-// (HairBxdf), interface (no surface: rays pass through), mix (pbrt-v4's deterministic per-point
-// choice). Approximated with a warning naming file:line: diffusetransmission -> diffuse with
-// pbrt's reflectance default 0.25 and "scale" (no transmission); unknown types -> diffuse 0.5.
+// Supported: diffuse, diffusetransmission, conductor, dielectric, thindielectric, coateddiffuse
+// and coatedconductor (closed-form layered approximations, see CoatedDiffuseBxdf and
+// CoatedConductorBxdf), hair (HairBxdf), interface (no surface: rays pass through), mix
+// (pbrt-v4's deterministic per-point choice). Unknown types warn with file:line and render as
+// diffuse 0.5.
 // Every material but hair honours "displacement" (bump mapping) and "normalmap" (a
 // tangent-space normal map image, read linearly).
 // Parameter names and defaults are pbrt-v4's (materials.cpp); see bsdf.h for the models.

@@ -80,6 +80,7 @@ std::vector<Bxdf> rough_models() {
         DielectricBxdf{1.f / 1.33f, TrowbridgeReitz(0.5f, 0.1f)},
         CoatedDiffuseBxdf(Rgb(0.6f, 0.3f, 0.9f), 1.5f, TrowbridgeReitz(0.3f, 0.3f), 0.05f),
         CoatedDiffuseBxdf(Rgb(0.6f), 1.5f, TrowbridgeReitz(0.f, 0.f)),
+        DiffuseTransmissionBxdf{Rgb(0.3f, 0.5f, 0.1f), Rgb(0.6f, 0.2f, 0.4f)},
         coated_conductor(1.5f, 0.2f, 0.3f),
         coated_conductor(1.5f, 0.f, 0.25f),
         coated_conductor(1.5f, 0.4f, 0.f),
@@ -274,7 +275,11 @@ TEST_CASE("sample_f agrees with f and pdf, and f |cos| / pdf is the sample weigh
                     for (int ch = 0; ch < 3; ++ch)
                         CHECK(f[ch] == Approx(s->f[ch]).epsilon(2e-3));
                     if (s->is_transmission()) {
-                        CHECK(s->eta != 1.f);
+                        // Refraction has eta != 1; diffuse transmission does not refract.
+                        if (std::holds_alternative<DiffuseTransmissionBxdf>(b))
+                            CHECK(s->eta == 1.f);
+                        else
+                            CHECK(s->eta != 1.f);
                         CHECK_FALSE(same_hemisphere(wo, s->wi));
                     } else {
                         CHECK(same_hemisphere(wo, s->wi));

@@ -82,6 +82,13 @@ std::vector<Case> all_cases() {
                  dir_from_theta(th)});
         }
     }
+    for (float th : {0.f, 60.f}) {
+        cases.push_back({"diffusetransmission", "diffusetransmission_t" + fmt(th),
+                         DiffuseTransmissionBxdf{Rgb(0.3f, 0.5f, 0.1f), Rgb(0.6f, 0.2f, 0.4f)},
+                         dir_from_theta(th)});
+    }
+    cases.push_back({"diffusetransmission", "diffusetransmission_below",
+                     DiffuseTransmissionBxdf{Rgb(0.7f), Rgb(0.2f)}, -dir_from_theta(30.f)});
     for (float ca : {0.f, 0.3f}) {
         for (float th : {10.f, 60.f, 85.f}) {
             CoatedConductorBxdf b;
@@ -167,6 +174,9 @@ TEST_CASE("chi2: diffuse") {
 }
 TEST_CASE("chi2: conductor (isotropic and anisotropic GGX)") {
     run_family("conductor");
+}
+TEST_CASE("chi2: diffuse transmission (reflection on wo's side, transmission on the other)") {
+    run_family("diffusetransmission");
 }
 TEST_CASE("chi2: coated conductor (coat lobe or mirror, base refracted through the coat)") {
     run_family("coatedconductor");

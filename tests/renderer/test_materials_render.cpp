@@ -80,6 +80,26 @@ TEST_CASE("coatedconductor reads pbrt-v4's parameters; a clear coat over a mirro
               .epsilon(1e-3));
 }
 
+TEST_CASE("diffusetransmission: a sheet under a white sky reflects r and transmits t") {
+    // A plane filling the view, the sky on both sides, one bounce: r + t of the sky arrives.
+    std::string s =
+        "LookAt 0 0 -3  0 0 0  0 1 0\nCamera \"perspective\" \"float fov\" [ 20 ]\n"
+        "Film \"rgb\" \"integer xresolution\" [ 4 ] \"integer yresolution\" [ 4 ]\n"
+        "Sampler \"zsobol\" \"integer pixelsamples\" [ 256 ]\nPixelFilter \"box\"\n"
+        "Integrator \"path\" \"integer maxdepth\" [ 1 ]\nWorldBegin\n"
+        "LightSource \"infinite\" \"rgb L\" [ 1 1 1 ]\n"
+        "Material \"diffusetransmission\" \"rgb reflectance\" [ 0.3 0.1 0.6 ] "
+        "\"rgb transmittance\" [ 0.5 0.2 0.2 ]\n"
+        "Shape \"trianglemesh\" \"point3 P\" [ -9 -9 0  9 -9 0  9 9 0  -9 9 0 ]\n"
+        "  \"integer indices\" [ 0 1 2  0 2 3 ]\n";
+    int before = warning_count();
+    sampling::RgbImage img = render_image(*scene_from_string(s));
+    CHECK(warning_count() == before);
+    CHECK(image_mean(img, 0) == test::Approx(0.8).epsilon(0.01));
+    CHECK(image_mean(img, 1) == test::Approx(0.3).epsilon(0.01));
+    CHECK(image_mean(img, 2) == test::Approx(0.8).epsilon(0.01));
+}
+
 TEST_CASE("diffusetransmission keeps pbrt-v4's reflectance default 0.25") {
     std::string s =
         "LookAt 0 0 5  0 0 0  0 1 0\nCamera \"perspective\" \"float fov\" [ 10 ]\n"
@@ -89,7 +109,8 @@ TEST_CASE("diffusetransmission keeps pbrt-v4's reflectance default 0.25") {
         "LightSource \"infinite\" \"rgb L\" [ 1 1 1 ]\n"
         "Material \"diffusetransmission\"\nShape \"sphere\" \"float radius\" [ 1 ]\n";
     auto sc = scene_from_string(s);
-    // Albedo 0.25 under a white environment, one bounce: 0.25 everywhere on the sphere.
+    // Albedo 0.25 under a white environment, one bounce: 0.25 everywhere on the sphere (what it
+    // transmits goes into the closed sphere, which the sky does not reach).
     CHECK(image_mean(render_image(*sc), 0) == test::Approx(0.25).epsilon(0.01));
     // "scale" multiplies a given reflectance too, then clamps to 1 (pbrt-v4):
     // 0.2 x 2 = 0.4 in red, 0.8 x 2 = 1.6 -> 1 in blue.
