@@ -204,17 +204,12 @@ void check_ply_stream(std::istream &in, uint64_t file_size, const std::string &p
     const bool ascii = format == "ascii", big = format == "binary_big_endian";
     if (!ascii && !big && format != "binary_little_endian")
         fail(path, "unknown PLY format \"" + format + "\"");
-    // A mesh needs its "vertex" and "face" elements. assimp 5.2 reads a file without them
-    // from the wrong bytes (fuzz_ply: an element named "444...4vertex" made it allocate 11 GB).
-    bool has_vertex = false, has_face = false;
-    for (const PlyElement &e : elements) {
-        has_vertex = has_vertex || e.name == "vertex";
-        has_face = has_face || e.name == "face";
-    }
-    if (!has_vertex || !has_face)
-        fail(path, std::string("PLY file has no \"") + (has_vertex ? "face" : "vertex") +
-                       "\" element (a mesh needs vertices and faces; point clouds and "
-                       "triangle strips are not supported)");
+    // A mesh needs its "vertex" element. assimp 5.2 reads a file without one from the wrong
+    // bytes (fuzz_ply: an element named "444...4vertex" made it allocate 11 GB). (Vertices
+    // without faces are read and rejected later: "no triangles or quads".)
+    bool has_vertex = false;
+    for (const PlyElement &e : elements) has_vertex = has_vertex || e.name == "vertex";
+    if (!has_vertex) fail(path, "PLY file has no \"vertex\" element");
     // assimp 5.2 misreads the data after an element it does not know (neither "vertex" nor
     // "face") unless it comes after both: it found no faces, or indices from the wrong bytes,
     // or (fuzz_ply) a face count that made it allocate 4.4 GB. Such elements are allowed only
