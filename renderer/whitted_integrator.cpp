@@ -68,6 +68,14 @@ int specular_lobes(const Bsdf &bsdf, Vec3f wo_world, SpecularLobe lobes[2]) {
         }
         add(mirror, Rgb(r));
         add(-wo, Rgb(tr));
+    } else if (const auto *cc = std::get_if<CoatedConductorBxdf>(&b)) {
+        // Both layers as perfect mirrors: the coat's reflection plus all the base returns, one
+        // mirror lobe (what sample_f gives for smooth layers; two-sided like the BxDF).
+        CoatedConductorBxdf smooth = *cc;
+        smooth.coat = TrowbridgeReitz(0.f, 0.f);
+        smooth.base.distrib = TrowbridgeReitz(0.f, 0.f);
+        if (auto s = smooth.sample_f(wo, 0.5f, {0.5f, 0.5f}, TransportMode::Radiance))
+            add(mirror, s->f * std::abs(s->wi.z));
     } else if (const auto *cd = std::get_if<CoatedDiffuseBxdf>(&b)) {
         // The coat's mirror reflection (two-sided, like the BxDF); its base is shaded by f().
         if (cd->eta != 1.f)

@@ -7,6 +7,7 @@
 #include "approx.h"
 #include "render_test_util.h"
 #include "renderer/scene_desc.h"
+#include "renderer/whitted_integrator.h"
 #include "test_helpers.h"
 
 #include <OpenImageIO/imageio.h>
@@ -69,6 +70,24 @@ TEST_CASE("coatedconductor reads pbrt-v4's parameters; a clear coat over a mirro
     };
     CHECK(furnace("Material \"coatedconductor\" \"rgb reflectance\" [ 1 1 1 ] "
                   "\"float thickness\" [ 0 ]") == test::Approx(1.0).epsilon(2e-3));
+    // The Whitted integrator treats both layers as mirrors: the same 1.
+    {
+        std::ostringstream os;
+        os << "LookAt 0 0 -3  0 0 0  0 1 0\nCamera \"perspective\" \"float fov\" [ 20 ]\n"
+           << "Film \"rgb\" \"integer xresolution\" [ 4 ] \"integer yresolution\" [ 4 ]\n"
+           << "WorldBegin\nLightSource \"infinite\" \"rgb L\" [ 1 1 1 ]\n"
+           << "Material \"coatedconductor\" \"rgb reflectance\" [ 1 1 1 ] \"float thickness\" 0 "
+           << "\"float conductor.roughness\" 0.3\n"
+           << "Shape \"trianglemesh\" \"point3 P\" [ -9 -9 0  9 -9 0  9 9 0  -9 9 0 ]\n"
+           << "  \"integer indices\" [ 0 1 2  0 2 3 ]\n";
+        auto wsc = scene_from_string(os.str());
+        WhittedIntegrator w(*wsc);
+        CameraSample cs;
+        cs.px = 2;
+        cs.py = 2;
+        cs.fx = cs.fy = 0.5f;
+        CHECK(w.evaluate(cs).radiance.g == test::Approx(1.0).epsilon(2e-3));
+    }
     double thick = furnace("Material \"coatedconductor\" \"rgb reflectance\" [ 1 1 1 ] "
                            "\"float thickness\" [ 0.5 ]");
     CHECK(thick < 0.5);
