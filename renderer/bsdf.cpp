@@ -493,14 +493,17 @@ Rgb DiffuseTransmissionBxdf::f(Vec3f wo, Vec3f wi, TransportMode) const {
 
 uint8_t DiffuseTransmissionBxdf::flags() const {
     uint8_t f = kBxdfUnset;
-    if (!r.is_black()) f |= kBxdfReflection | kBxdfDiffuse;
-    if (!t.is_black()) f |= kBxdfTransmission | kBxdfDiffuse;
+    if (!r.is_black())
+        f |= kBxdfReflection | kBxdfDiffuse;
+    if (!t.is_black())
+        f |= kBxdfTransmission | kBxdfDiffuse;
     return f;
 }
 
 float DiffuseTransmissionBxdf::pdf(Vec3f wo, Vec3f wi, TransportMode) const {
     float pr = r.max_value(), pt = t.max_value();
-    if (!(pr + pt > 0.f)) return 0.f;
+    if (!(pr + pt > 0.f))
+        return 0.f;
     float lobe = same_hemisphere(wo, wi) ? pr : pt;
     return sampling::cosine_hemisphere_pdf(std::abs(wi.z)) * lobe / (pr + pt);
 }
@@ -508,15 +511,17 @@ float DiffuseTransmissionBxdf::pdf(Vec3f wo, Vec3f wi, TransportMode) const {
 std::optional<BsdfSample> DiffuseTransmissionBxdf::sample_f(Vec3f wo, float uc, Vec2f u,
                                                             TransportMode) const {
     float pr = r.max_value(), pt = t.max_value();
-    if (!(pr + pt > 0.f) || wo.z == 0.f) return std::nullopt;
+    if (!(pr + pt > 0.f) || wo.z == 0.f)
+        return std::nullopt;
     BsdfSample s;
     s.wi = sampling::square_to_cosine_hemisphere(u);
     const bool reflect_lobe = uc < pr / (pr + pt);
     // Reflection on wo's side, transmission on the other.
-    if ((wo.z < 0.f) == reflect_lobe) s.wi.z = -s.wi.z;
+    if ((wo.z < 0.f) == reflect_lobe)
+        s.wi.z = -s.wi.z;
     s.f = (reflect_lobe ? r : t) * kInvPi;
-    s.pdf = sampling::cosine_hemisphere_pdf(std::abs(s.wi.z)) * (reflect_lobe ? pr : pt) /
-            (pr + pt);
+    s.pdf =
+        sampling::cosine_hemisphere_pdf(std::abs(s.wi.z)) * (reflect_lobe ? pr : pt) / (pr + pt);
     s.flags = reflect_lobe ? (kBxdfReflection | kBxdfDiffuse) : (kBxdfTransmission | kBxdfDiffuse);
     s.eta = 1.f;
     return s;
@@ -529,7 +534,8 @@ namespace {
 
 /// wo (upper hemisphere) refracted into a coat of IOR eta, pointing away from the base.
 Vec3f into_coat(Vec3f w, float eta) {
-    if (eta == 1.f) return w;
+    if (eta == 1.f)
+        return w;
     return {w.x / eta, w.y / eta, safe_sqrt(1.f - (1.f - w.z * w.z) / (eta * eta))};
 }
 
@@ -581,7 +587,8 @@ class CoatEscapeTable {
                         for (int j = 0; j < kSqrtN; ++j) {
                             Vec2f u{(i + 0.5f) / kSqrtN, (j + 0.5f) / kSqrtN};
                             Vec3f wi = reflect(w, d.sample_wm(w, u));
-                            if (!(wi.z > 0.f)) continue;
+                            if (!(wi.z > 0.f))
+                                continue;
                             double g = d.g1(wi);
                             weight += g;
                             // Leaving the coat from inside: relative IOR 1 / eta.
@@ -597,7 +604,8 @@ class CoatEscapeTable {
 /// reflection.
 std::optional<Vec3f> out_of_coat(Vec3f w, float eta) {
     float sin2 = (1.f - w.z * w.z) * eta * eta;
-    if (!(sin2 < 1.f)) return std::nullopt;
+    if (!(sin2 < 1.f))
+        return std::nullopt;
     return Vec3f(w.x * eta, w.y * eta, std::sqrt(1.f - sin2));
 }
 
@@ -605,19 +613,22 @@ std::optional<Vec3f> out_of_coat(Vec3f w, float eta) {
 
 uint8_t CoatedConductorBxdf::flags() const {
     uint8_t f = kBxdfReflection;
-    if (eta != 1.f) f |= coat.effectively_smooth() ? kBxdfSpecular : kBxdfGlossy;
+    if (eta != 1.f)
+        f |= coat.effectively_smooth() ? kBxdfSpecular : kBxdfGlossy;
     f |= base.distrib.effectively_smooth() ? kBxdfSpecular : kBxdfGlossy;
     return f;
 }
 
 float CoatedConductorBxdf::coat_probability(Vec3f wo) const {
-    if (eta == 1.f) return 0.f;
+    if (eta == 1.f)
+        return 0.f;
     float fr = fr_dielectric(wo.z, eta);
     Vec3f wo_in = into_coat(wo, eta);
     float fb = fr_complex(wo_in.z, base.eta, base.k).average();
     float a = std::exp(-2.f * absorb.average() / std::max(wo_in.z, 1e-4f));
     float b = (1.f - fr) * (1.f - fr) * fb * a;
-    if (!(b > 0.f)) return 1.f;
+    if (!(b > 0.f))
+        return 1.f;
     return clamp(fr / (fr + b), 0.05f, 0.95f);
 }
 
@@ -670,26 +681,32 @@ CoatPath coat_path(const CoatedConductorBxdf &b, Vec3f wo, Vec3f wi) {
 
 /// The coat's own rough reflection lobe (none when smooth or absent).
 Rgb coat_lobe_f(const CoatedConductorBxdf &b, Vec3f wo, Vec3f wi) {
-    if (b.eta == 1.f || b.coat.effectively_smooth()) return {};
+    if (b.eta == 1.f || b.coat.effectively_smooth())
+        return {};
     std::optional<Vec3f> wm = safe_normalize(wo + wi);
-    if (!wm) return {};
+    if (!wm)
+        return {};
     float fr = fr_dielectric(dot(wo, *wm), b.eta);
     return Rgb(b.coat.d(*wm) * b.coat.g(wo, wi) * fr / (4.f * wo.z * wi.z));
 }
 
 float coat_lobe_pdf(const CoatedConductorBxdf &b, Vec3f wo, Vec3f wi) {
-    if (b.eta == 1.f || b.coat.effectively_smooth()) return 0.f;
+    if (b.eta == 1.f || b.coat.effectively_smooth())
+        return 0.f;
     std::optional<Vec3f> wm = safe_normalize(wo + wi);
-    if (!wm) return 0.f;
+    if (!wm)
+        return 0.f;
     float wo_dot_wm = dot(wo, *wm);
-    if (!(wo_dot_wm > 0.f)) return 0.f;
+    if (!(wo_dot_wm > 0.f))
+        return 0.f;
     return b.coat.pdf(wo, *wm) / (4.f * wo_dot_wm);
 }
 
 /// Density of wi (outside) when the base's lobe is sampled inside the coat and refracted out:
 /// the inside density times dw_in / dw = cos wi / (eta^2 cos wi_in).
 float base_lobe_pdf(const CoatedConductorBxdf &b, const CoatPath &c, Vec3f wi) {
-    if (b.base.distrib.effectively_smooth()) return 0.f;
+    if (b.base.distrib.effectively_smooth())
+        return 0.f;
     float p = b.base.pdf(c.wo_in, c.wi_in, TransportMode::Radiance);
     return p * wi.z / (b.eta * b.eta * std::max(c.wi_in.z, 1e-6f));
 }
@@ -697,7 +714,8 @@ float base_lobe_pdf(const CoatedConductorBxdf &b, const CoatPath &c, Vec3f wi) {
 }  // namespace
 
 Rgb CoatedConductorBxdf::f(Vec3f wo, Vec3f wi, TransportMode) const {
-    if (!same_hemisphere(wo, wi)) return {};
+    if (!same_hemisphere(wo, wi))
+        return {};
     if (wo.z < 0.f) {
         wo = -wo;
         wi = -wi;
@@ -711,22 +729,26 @@ Rgb CoatedConductorBxdf::f(Vec3f wo, Vec3f wi, TransportMode) const {
 }
 
 float CoatedConductorBxdf::pdf(Vec3f wo, Vec3f wi, TransportMode) const {
-    if (!same_hemisphere(wo, wi)) return 0.f;
+    if (!same_hemisphere(wo, wi))
+        return 0.f;
     if (wo.z < 0.f) {
         wo = -wo;
         wi = -wi;
     }
     float pc = coat_probability(wo);
     float p = pc * coat_lobe_pdf(*this, wo, wi);
-    if (pc < 1.f) p += (1.f - pc) * base_lobe_pdf(*this, coat_path(*this, wo, wi), wi);
+    if (pc < 1.f)
+        p += (1.f - pc) * base_lobe_pdf(*this, coat_path(*this, wo, wi), wi);
     return std::isfinite(p) ? p : 0.f;
 }
 
 std::optional<BsdfSample> CoatedConductorBxdf::sample_f(Vec3f wo, float uc, Vec2f u,
                                                         TransportMode mode) const {
-    if (wo.z == 0.f) return std::nullopt;
+    if (wo.z == 0.f)
+        return std::nullopt;
     const bool flipped = wo.z < 0.f;
-    if (flipped) wo = -wo;
+    if (flipped)
+        wo = -wo;
     const bool coat_smooth = eta == 1.f || coat.effectively_smooth();
     const bool base_smooth = base.distrib.effectively_smooth();
     const float pc = coat_probability(wo);
@@ -762,19 +784,24 @@ std::optional<BsdfSample> CoatedConductorBxdf::sample_f(Vec3f wo, float uc, Vec2
         } else {
             Vec3f wo_in = into_coat(wo, eta);
             Vec3f wi_in = reflect(wo_in, base.distrib.sample_wm(wo_in, u));
-            if (!(wi_in.z > 0.f)) return std::nullopt;
+            if (!(wi_in.z > 0.f))
+                return std::nullopt;
             std::optional<Vec3f> out = out_of_coat(wi_in, eta);
-            if (!out) return std::nullopt;
+            if (!out)
+                return std::nullopt;
             wi = *out;
             s.flags = kBxdfReflection | kBxdfGlossy;
         }
-        if (!(wi.z > 0.f)) return std::nullopt;
+        if (!(wi.z > 0.f))
+            return std::nullopt;
         s.wi = wi;
         s.f = f(wo, wi, mode);
         s.pdf = pdf(wo, wi, mode);
-        if (!(s.pdf > 0.f) || s.f.is_black()) return std::nullopt;
+        if (!(s.pdf > 0.f) || s.f.is_black())
+            return std::nullopt;
     }
-    if (flipped) s.wi = -s.wi;
+    if (flipped)
+        s.wi = -s.wi;
     return s;
 }
 

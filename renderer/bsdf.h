@@ -221,10 +221,10 @@ struct CoatedDiffuseBxdf {
 /// else the base's visible normals inside the coat, refracted out (a direction that cannot
 /// leave the coat fails).
 struct CoatedConductorBxdf {
-    float eta = 1.5f;          ///< coat IOR (values < 1 are inverted; 1: no coat)
-    TrowbridgeReitz coat;      ///< the coat's roughness
-    ConductorBxdf base;        ///< the metal, eta and k relative to the coat
-    Rgb absorb{0.01f};         ///< thickness (1 - albedo) per channel
+    float eta = 1.5f;      ///< coat IOR (values < 1 are inverted; 1: no coat)
+    TrowbridgeReitz coat;  ///< the coat's roughness
+    ConductorBxdf base;    ///< the metal, eta and k relative to the coat
+    Rgb absorb{0.01f};     ///< thickness (1 - albedo) per channel
 
     Rgb f(Vec3f wo, Vec3f wi, TransportMode mode) const;
     std::optional<BsdfSample> sample_f(Vec3f wo, float uc, Vec2f u, TransportMode mode) const;
@@ -254,8 +254,8 @@ struct HairBxdf {
     float h = 0.f;
     float eta = 1.55f;
     Rgb sigma_a{0.f};
-    float v0 = 0.f;      ///< longitudinal variance of the R lobe (TT: v0 / 4, TRT and rest: 4 v0)
-    float s = 0.f;       ///< azimuthal logistic scale
+    float v0 = 0.f;  ///< longitudinal variance of the R lobe (TT: v0 / 4, TRT and rest: 4 v0)
+    float s = 0.f;   ///< azimuthal logistic scale
     float sin_alpha = 0.f, cos_alpha = 1.f;  ///< of the scale tilt
 
     HairBxdf() : HairBxdf(0.f, 1.55f, Rgb(0.f), 0.3f, 0.3f, 2.f) {}
@@ -331,9 +331,9 @@ struct LambertianBsdf {
     }
 };
 
-using Bxdf = std::variant<DiffuseBxdf, ConductorBxdf, DielectricBxdf, ThinDielectricBxdf,
-                          CoatedDiffuseBxdf, CoatedConductorBxdf, HairBxdf,
-                          DiffuseTransmissionBxdf>;
+using Bxdf =
+    std::variant<DiffuseBxdf, ConductorBxdf, DielectricBxdf, ThinDielectricBxdf, CoatedDiffuseBxdf,
+                 CoatedConductorBxdf, HairBxdf, DiffuseTransmissionBxdf>;
 
 /// A Bxdf with its shading frame; takes and returns world-space unit directions. Directions
 /// passed in are normalised here. A direction exactly in the tangent plane (wo.z == 0 locally)

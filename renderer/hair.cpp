@@ -45,8 +45,7 @@ float mp(float cos_i, float cos_o, float sin_i, float sin_o, float v) {
         // The exponent sums terms of size 1/v (7e4 for beta_m 0.01) that nearly cancel: all of
         // it in double.
         const double vd = v, a = double(cos_i) * cos_o / vd, b = double(sin_i) * sin_o / vd;
-        m = float(std::exp(log_bessel_i0(a) - b - 1.0 / vd + M_LN2 +
-                           std::log(1.0 / (2.0 * vd))));
+        m = float(std::exp(log_bessel_i0(a) - b - 1.0 / vd + M_LN2 + std::log(1.0 / (2.0 * vd))));
     } else {
         float a = cos_i * cos_o / v, b = sin_i * sin_o / v;
         m = std::exp(-b) * float(bessel_i0(a)) / (std::sinh(1.f / v) * 2.f * v);
@@ -61,7 +60,8 @@ std::array<Rgb, kPMax + 1> ap(float cos_theta_o, float eta, float h, Rgb t) {
     float f = fr_dielectric(cos_theta_o * cos_gamma_o, eta);
     a[0] = Rgb(f);
     a[1] = t * sqr(1.f - f);
-    for (int p = 2; p < kPMax; ++p) a[size_t(p)] = a[size_t(p - 1)] * t * f;
+    for (int p = 2; p < kPMax; ++p)
+        a[size_t(p)] = a[size_t(p - 1)] * t * f;
     // The geometric series of every higher order.
     Rgb denom = Rgb(1.f) - t * f;
     auto div = [](float n, float d) { return d != 0.f ? n / d : 0.f; };
@@ -81,7 +81,9 @@ float logistic(float x, float s) {
     return e / (s * sqr(1.f + e));
 }
 
-float logistic_cdf(float x, float s) { return 1.f / (1.f + std::exp(-x / s)); }
+float logistic_cdf(float x, float s) {
+    return 1.f / (1.f + std::exp(-x / s));
+}
 
 float trimmed_logistic(float x, float s, float a, float b) {
     return logistic(x, s) / (logistic_cdf(b, s) - logistic_cdf(a, s));
@@ -98,8 +100,10 @@ float sample_trimmed_logistic(float u, float s, float a, float b) {
 /// Azimuthal scattering Np of lobe p at relative azimuth phi.
 float np(float phi, int p, float s, float gamma_o, float gamma_t) {
     float dphi = phi - phi_p(p, gamma_o, gamma_t);
-    while (dphi > kPi) dphi -= 2.f * kPi;
-    while (dphi < -kPi) dphi += 2.f * kPi;
+    while (dphi > kPi)
+        dphi -= 2.f * kPi;
+    while (dphi < -kPi)
+        dphi += 2.f * kPi;
     return trimmed_logistic(dphi, s, -kPi, kPi);
 }
 
@@ -154,8 +158,10 @@ std::array<float, kPMax + 1> lobe_pdf(const HairBxdf &b, const FiberGeometry &g)
     std::array<Rgb, kPMax + 1> a = ap(g.cos_o, b.eta, b.h, g.t);
     std::array<float, kPMax + 1> w;
     float sum = 0.f;
-    for (int i = 0; i <= kPMax; ++i) sum += (w[size_t(i)] = a[size_t(i)].average());
-    for (float &x : w) x = sum > 0.f ? x / sum : 0.f;
+    for (int i = 0; i <= kPMax; ++i)
+        sum += (w[size_t(i)] = a[size_t(i)].average());
+    for (float &x : w)
+        x = sum > 0.f ? x / sum : 0.f;
     return w;
 }
 
@@ -194,7 +200,8 @@ Rgb HairBxdf::f(Vec3f wo, Vec3f wi, TransportMode) const {
                (mp(cos_i, g.cos_po[size_t(p)], sin_i, g.sin_po[size_t(p)], variance(*this, p)) *
                 np(phi, p, s, g.gamma_o, g.gamma_t));
     sum += a[kPMax] * (mp(cos_i, g.cos_o, sin_i, g.sin_o, variance(*this, kPMax)) * kInv2Pi);
-    if (std::abs(wi.z) > 0.f) sum /= std::abs(wi.z);
+    if (std::abs(wi.z) > 0.f)
+        sum /= std::abs(wi.z);
     return sum;
 }
 
@@ -207,7 +214,8 @@ std::optional<BsdfSample> HairBxdf::sample_f(Vec3f wo, float uc, Vec2f u, Transp
         uc -= w[size_t(p)];
         ++p;
     }
-    if (!(w[size_t(p)] > 0.f)) return std::nullopt;
+    if (!(w[size_t(p)] > 0.f))
+        return std::nullopt;
     uc = std::min(uc / w[size_t(p)], kOneMinusEpsilon);
 
     float sin_po = p < kPMax ? g.sin_po[size_t(p)] : g.sin_o;
@@ -220,8 +228,9 @@ std::optional<BsdfSample> HairBxdf::sample_f(Vec3f wo, float uc, Vec2f u, Transp
     float sin_i = -cos_theta * sin_po + sin_theta * cos_phi * cos_po;
     float cos_i = safe_sqrt(1.f - sqr(sin_i));
     // Np: the azimuth about the lobe's exit azimuth.
-    float dphi = p < kPMax ? phi_p(p, g.gamma_o, g.gamma_t) + sample_trimmed_logistic(uc, s, -kPi, kPi)
-                           : 2.f * kPi * uc;
+    float dphi = p < kPMax
+                     ? phi_p(p, g.gamma_o, g.gamma_t) + sample_trimmed_logistic(uc, s, -kPi, kPi)
+                     : 2.f * kPi * uc;
     float phi_i = g.phi_o + dphi;
 
     BsdfSample bs;

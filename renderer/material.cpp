@@ -193,8 +193,14 @@ class HairMaterial final : public Material {
                  const FloatTexture *eumelanin, const FloatTexture *pheomelanin,
                  const FloatTexture *eta, const FloatTexture *beta_m, const FloatTexture *beta_n,
                  const FloatTexture *alpha)
-        : sigma_a_(sigma_a), color_(color), eumelanin_(eumelanin), pheomelanin_(pheomelanin),
-          eta_(eta), beta_m_(beta_m), beta_n_(beta_n), alpha_(alpha) {}
+        : sigma_a_(sigma_a),
+          color_(color),
+          eumelanin_(eumelanin),
+          pheomelanin_(pheomelanin),
+          eta_(eta),
+          beta_m_(beta_m),
+          beta_n_(beta_n),
+          alpha_(alpha) {}
     std::optional<Bsdf> get_bsdf(const SurfaceInteraction &si,
                                  const TextureEvalContext &tc) const override {
         // pbrt-v4 HairMaterial::GetBxDF.
@@ -211,8 +217,7 @@ class HairMaterial final : public Material {
             sigma_a = HairBxdf::sigma_a_from_concentration(
                 std::max(0.f, eumelanin_->evaluate(tc)), std::max(0.f, pheomelanin_->evaluate(tc)));
         }
-        HairBxdf b(-1.f + 2.f * si.uv.y, eta_->evaluate(tc), sigma_a, bm, bn,
-                   alpha_->evaluate(tc));
+        HairBxdf b(-1.f + 2.f * si.uv.y, eta_->evaluate(tc), sigma_a, bm, bn, alpha_->evaluate(tc));
         return Bsdf(frame(si, tc), b);
     }
     uint8_t possible_flags() const override { return kBxdfReflection | kBxdfGlossy; }
@@ -260,15 +265,21 @@ class CoatedConductorMaterial final : public Material {
                             const SpectrumTexture *k, const SpectrumTexture *reflectance,
                             Roughness base_rough, const FloatTexture *thickness,
                             const SpectrumTexture *albedo)
-        : coat_eta_(coat_eta), coat_rough_(coat_rough), eta_(eta), k_(k),
-          reflectance_(reflectance), base_rough_(base_rough), thickness_(thickness),
+        : coat_eta_(coat_eta),
+          coat_rough_(coat_rough),
+          eta_(eta),
+          k_(k),
+          reflectance_(reflectance),
+          base_rough_(base_rough),
+          thickness_(thickness),
           albedo_(albedo) {}
     std::optional<Bsdf> get_bsdf(const SurfaceInteraction &si,
                                  const TextureEvalContext &tc) const override {
         CoatedConductorBxdf b;
         // pbrt-v4 treats 0 as 1; a coat below 1 is inverted, as for coateddiffuse.
         float ieta = coat_eta_ > 0.f && std::isfinite(coat_eta_) ? coat_eta_ : 1.f;
-        if (ieta < 1.f) ieta = 1.f / ieta;
+        if (ieta < 1.f)
+            ieta = 1.f / ieta;
         b.eta = ieta;
         b.coat = coat_rough_.eval(tc);
         Rgb ce(1.f), ck;
@@ -369,7 +380,8 @@ float scalar_eta(const ParamSet &ps, const FileLoc &loc, float def,
                  const std::string &name = "eta") {
     const Param *p = ps.find(name);
     if (!p) return def;
-    if (p->type == "float") return ps.get_float(name, def);
+    if (p->type == "float")
+        return ps.get_float(name, def);
     if (p->type == "texture") {
         warn(loc, "textured \"" + name + "\" is not supported; using " + std::to_string(def));
         p->used = true;
@@ -378,8 +390,9 @@ float scalar_eta(const ParamSet &ps, const FileLoc &loc, float def,
     std::optional<Rgb> c = ps.get_rgb(name, false, true);
     if (!c) return def;
     if (std::abs(c->r - c->b) > 1e-3f)
-        warn(loc, "spectrally varying \"" + name + "\" (dispersion) is approximated by its "
-                  "value at the green primary");
+        warn(loc, "spectrally varying \"" + name +
+                      "\" (dispersion) is approximated by its "
+                      "value at the green primary");
     return c->g;
 }
 
@@ -520,7 +533,8 @@ int MaterialSet::build(const std::string &name, const std::map<std::string, Mate
         // "reflectance" for the metal, "thickness" 0.01 and "albedo" 0 for the layer. "g",
         // "maxdepth" and "nsamples" steer pbrt's random walk: no meaning in the closed form.
         for (const char *walk : {"g", "maxdepth", "nsamples"})
-            if (const Param *p = ps.find(walk)) p->used = true;
+            if (const Param *p = ps.find(walk))
+                p->used = true;
         const SpectrumTexture *refl = tex.spectrum_param(ps, "reflectance", std::nullopt, false);
         const SpectrumTexture *eta = nullptr, *k = nullptr;
         if (!refl) {
@@ -537,8 +551,7 @@ int MaterialSet::build(const std::string &name, const std::map<std::string, Mate
         // "scale" (a float, 1) and clamped to [0, 1].
         m = std::make_unique<DiffuseTransmissionMaterial>(
             tex.spectrum_param(ps, "reflectance", Rgb(0.25f), true),
-            tex.spectrum_param(ps, "transmittance", Rgb(0.25f), true),
-            ps.get_float("scale", 1.f));
+            tex.spectrum_param(ps, "transmittance", Rgb(0.25f), true), ps.get_float("scale", 1.f));
     }
 
     if (m) {
@@ -584,7 +597,8 @@ int MaterialSet::build(const std::string &name, const std::map<std::string, Mate
             }
         }
         auto ignore = [&](const Param *p, const std::string &why) {
-            if (!p) return;
+            if (!p)
+                return;
             warn(p->loc, "hair: \"" + p->name + "\" ignored since \"" + why + "\" was given");
             p->used = true;
         };
@@ -610,8 +624,9 @@ int MaterialSet::build(const std::string &name, const std::map<std::string, Mate
             tex.float_param(ps, "alpha", 2.f));
         // pbrt-v4's hair has neither: the shading normal is the fiber's own.
         if (displacement || normal_map) {
-            warn(d.loc, "hair: \"displacement\" and \"normalmap\" are not supported on hair "
-                        "(pbrt-v4 has neither); ignored");
+            warn(d.loc,
+                 "hair: \"displacement\" and \"normalmap\" are not supported on hair "
+                 "(pbrt-v4 has neither); ignored");
             displacement = nullptr;
             normal_map.reset();
         }

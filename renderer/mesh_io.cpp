@@ -208,8 +208,10 @@ void check_ply_stream(std::istream &in, uint64_t file_size, const std::string &p
     // bytes (fuzz_ply: an element named "444...4vertex" made it allocate 11 GB). (Vertices
     // without faces are read and rejected later: "no triangles or quads".)
     bool has_vertex = false;
-    for (const PlyElement &e : elements) has_vertex = has_vertex || e.name == "vertex";
-    if (!has_vertex) fail(path, "PLY file has no \"vertex\" element");
+    for (const PlyElement &e : elements)
+        has_vertex = has_vertex || e.name == "vertex";
+    if (!has_vertex)
+        fail(path, "PLY file has no \"vertex\" element");
     // assimp 5.2 misreads the data after an element it does not know (neither "vertex" nor
     // "face") unless it comes after both: it found no faces, or indices from the wrong bytes,
     // or (fuzz_ply) a face count that made it allocate 4.4 GB. Such elements are allowed only

@@ -11,7 +11,9 @@ namespace tessera {
 /// Perlin noise at (x, y, z), in about [-1, 1]; 0 at every lattice point. pbrt-v4's defaults
 /// put two-argument and one-argument calls at y, z = 0.5.
 float perlin_noise(float x, float y = 0.5f, float z = 0.5f);
-inline float perlin_noise(Vec3f p) { return perlin_noise(p.x, p.y, p.z); }
+inline float perlin_noise(Vec3f p) {
+    return perlin_noise(p.x, p.y, p.z);
+}
 
 /// Fractional Brownian motion: octaves of noise at frequencies 1.99^i with weights omega^i,
 /// as many as the footprint (dpdx, dpdy, in texture space) resolves, at most max_octaves, the

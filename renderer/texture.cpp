@@ -359,15 +359,19 @@ class NoiseTexture final : public FloatTexture {
   public:
     enum class Kind { Fbm, Wrinkled, Windy };
     NoiseTexture(Kind kind, const Transform &texture_from_render, int octaves, float omega)
-        : kind_(kind), texture_from_render_(texture_from_render), octaves_(octaves),
+        : kind_(kind),
+          texture_from_render_(texture_from_render),
+          octaves_(octaves),
           omega_(omega) {}
     float evaluate(const TextureEvalContext &ctx) const override {
         Vec3f p = texture_from_render_.point(ctx.p);
         Vec3f dpdx = texture_from_render_.vector(ctx.dpdx);
         Vec3f dpdy = texture_from_render_.vector(ctx.dpdy);
         switch (kind_) {
-            case Kind::Fbm: return fbm(p, dpdx, dpdy, omega_, octaves_);
-            case Kind::Wrinkled: return turbulence(p, dpdx, dpdy, omega_, octaves_);
+            case Kind::Fbm:
+                return fbm(p, dpdx, dpdy, omega_, octaves_);
+            case Kind::Wrinkled:
+                return turbulence(p, dpdx, dpdy, omega_, octaves_);
             case Kind::Windy: {
                 // pbrt-v4 WindyTexture: a slow fBm of wind strength scales the waves' fBm.
                 float wind = fbm(p * 0.1f, dpdx * 0.1f, dpdy * 0.1f, 0.5f, 3);
@@ -378,7 +382,8 @@ class NoiseTexture final : public FloatTexture {
         return 0.f;
     }
     std::string describe() const override {
-        if (kind_ == Kind::Windy) return "windy";
+        if (kind_ == Kind::Windy)
+            return "windy";
         return std::string(kind_ == Kind::Fbm ? "fbm" : "wrinkled") + " (octaves " +
                std::to_string(octaves_) + ", roughness " + fmt(omega_) + ")";
     }
@@ -396,14 +401,18 @@ class MarbleTexture final : public SpectrumTexture {
   public:
     MarbleTexture(const Transform &texture_from_render, int octaves, float omega, float scale,
                   float variation)
-        : texture_from_render_(texture_from_render), octaves_(octaves), omega_(omega),
-          scale_(scale), variation_(variation) {}
+        : texture_from_render_(texture_from_render),
+          octaves_(octaves),
+          omega_(omega),
+          scale_(scale),
+          variation_(variation) {}
     Rgb evaluate(const TextureEvalContext &ctx) const override {
         Vec3f p = texture_from_render_.point(ctx.p) * scale_;
         Vec3f dpdx = texture_from_render_.vector(ctx.dpdx) * scale_;
         Vec3f dpdy = texture_from_render_.vector(ctx.dpdy) * scale_;
         float marble = p.y + variation_ * fbm(p, dpdx, dpdy, omega_, octaves_);
-        if (!std::isfinite(marble)) marble = 0.f;  // a degenerate texture transform
+        if (!std::isfinite(marble))
+            marble = 0.f;  // a degenerate texture transform
         float t = 0.5f + 0.5f * std::sin(marble);
         static const Rgb kColors[] = {{.58f, .58f, .6f}, {.58f, .58f, .6f}, {.58f, .58f, .6f},
                                       {.5f, .5f, .5f},   {.6f, .59f, .58f}, {.58f, .58f, .6f},
@@ -414,7 +423,8 @@ class MarbleTexture final : public SpectrumTexture {
         // de Casteljau on kColors[first .. first + 3].
         auto lerp_rgb = [](float u, Rgb a, Rgb b) { return (1.f - u) * a + u * b; };
         const Rgb *c = kColors + first;
-        Rgb a0 = lerp_rgb(t, c[0], c[1]), a1 = lerp_rgb(t, c[1], c[2]), a2 = lerp_rgb(t, c[2], c[3]);
+        Rgb a0 = lerp_rgb(t, c[0], c[1]), a1 = lerp_rgb(t, c[1], c[2]),
+            a2 = lerp_rgb(t, c[2], c[3]);
         Rgb b0 = lerp_rgb(t, a0, a1), b1 = lerp_rgb(t, a1, a2);
         return 1.5f * lerp_rgb(t, b0, b1);
     }
@@ -430,14 +440,16 @@ class MarbleTexture final : public SpectrumTexture {
 /// on integer st) whose noise is positive.
 bool inside_polka_dot(Vec2f st) {
     // Cells beyond int's range (or not a number): no dot (pbrt-v4: undefined).
-    if (!(std::abs(st.x) < 1e9f && std::abs(st.y) < 1e9f)) return false;
+    if (!(std::abs(st.x) < 1e9f && std::abs(st.y) < 1e9f))
+        return false;
     int s_cell = int(std::floor(st.x + 0.5f)), t_cell = int(std::floor(st.y + 0.5f));
-    if (!(perlin_noise(float(s_cell) + 0.5f, float(t_cell) + 0.5f) > 0.f)) return false;
+    if (!(perlin_noise(float(s_cell) + 0.5f, float(t_cell) + 0.5f) > 0.f))
+        return false;
     const float radius = 0.35f, max_shift = 0.5f - radius;
-    float s_center = float(s_cell) + max_shift * perlin_noise(float(s_cell) + 1.5f,
-                                                                float(t_cell) + 2.8f);
-    float t_center = float(t_cell) + max_shift * perlin_noise(float(s_cell) + 4.5f,
-                                                                float(t_cell) + 9.8f);
+    float s_center =
+        float(s_cell) + max_shift * perlin_noise(float(s_cell) + 1.5f, float(t_cell) + 2.8f);
+    float t_center =
+        float(t_cell) + max_shift * perlin_noise(float(s_cell) + 4.5f, float(t_cell) + 9.8f);
     float ds = st.x - s_center, dt = st.y - t_center;
     return ds * ds + dt * dt < radius * radius;
 }
@@ -853,13 +865,14 @@ struct TextureSet::Builder {
         if (cls == "fbm" || cls == "wrinkled" || cls == "windy") {
             if constexpr (std::is_same_v<T, float>) {
                 using Kind = NoiseTexture::Kind;
-                Kind kind = cls == "fbm" ? Kind::Fbm : (cls == "wrinkled" ? Kind::Wrinkled : Kind::Windy);
+                Kind kind =
+                    cls == "fbm" ? Kind::Fbm : (cls == "wrinkled" ? Kind::Wrinkled : Kind::Windy);
                 int octaves = kind == Kind::Windy ? 0 : ps.get_int("octaves", 8);
                 float omega = kind == Kind::Windy ? 0.f : ps.get_float("roughness", 0.5f);
                 if (octaves < 0 || octaves > 64)
                     throw SceneError(d.loc, cls + ": \"octaves\" must be in [0, 64]");
-                return make(std::make_unique<NoiseTexture>(
-                    kind, d.render_from_texture.inverse(), octaves, omega));
+                return make(std::make_unique<NoiseTexture>(kind, d.render_from_texture.inverse(),
+                                                           octaves, omega));
             } else {
                 throw SceneError(d.loc, "\"" + cls + "\" is a float texture only (pbrt-v4)");
             }

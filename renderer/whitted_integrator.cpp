@@ -334,8 +334,8 @@ Rgb WhittedIntegrator::local_shading(const ShadePoint &sp, const Bsdf *bsdf,
     // skipped before their radiance and the BSDF are evaluated. Usually wo is above sp.n; on the
     // back of a one-sided emitter it is below. Hair is flagged reflection-only (as in pbrt-v4)
     // but its TT and TRT lobes leave through the far side of the fiber.
-    const bool reflect_only = !(bsdf->flags() & kBxdfTransmission) &&
-                              !std::holds_alternative<HairBxdf>(bsdf->bxdf());
+    const bool reflect_only =
+        !(bsdf->flags() & kBxdfTransmission) && !std::holds_alternative<HairBxdf>(bsdf->bxdf());
     const float cos_o = dot(sp.wo, sp.n);
     // Every early `continue` below is a light that cannot contribute here: no shadow ray. The
     // same tests run in shade() (tr null), so shadow bits and shade() stay consistent.

@@ -208,7 +208,8 @@ TEST_CASE("reciprocity of the reflection lobes") {
     test::Chi2Rng rng(11);
     for (const Bxdf &b : rough_models()) {
         // The coated conductor's inter-reflection gain is wo's (see CoatedConductorBxdf).
-        if (std::holds_alternative<CoatedConductorBxdf>(b)) continue;
+        if (std::holds_alternative<CoatedConductorBxdf>(b))
+            continue;
         for (int i = 0; i < 200; ++i) {
             Vec3f wo = sampling::square_to_uniform_hemisphere(rng.uniform2());
             Vec3f wi = sampling::square_to_uniform_hemisphere(rng.uniform2());
@@ -460,8 +461,10 @@ TEST_CASE("coated conductor: the bare-metal limit, the exact smooth case, energy
     for (int i = 0; i < 200; ++i) {
         Vec3f wo = sampling::square_to_uniform_hemisphere(rng.uniform2());
         Vec3f wi = sampling::square_to_uniform_hemisphere(rng.uniform2());
-        Rgb a = bare.f(wo, wi, TransportMode::Radiance), b = metal.f(wo, wi, TransportMode::Radiance);
-        for (int c = 0; c < 3; ++c) CHECK(a[c] == Approx(b[c]).epsilon(1e-5));
+        Rgb a = bare.f(wo, wi, TransportMode::Radiance),
+            b = metal.f(wo, wi, TransportMode::Radiance);
+        for (int c = 0; c < 3; ++c)
+            CHECK(a[c] == Approx(b[c]).epsilon(1e-5));
         CHECK(bare.pdf(wo, wi, TransportMode::Radiance) ==
               Approx(metal.pdf(wo, wi, TransportMode::Radiance)).epsilon(1e-5));
     }

@@ -22,8 +22,8 @@ namespace {
 std::string furnace_scene(const std::string &material, int res = 16, int spp = 64) {
     std::ostringstream os;
     os << "LookAt 0 0 5  0 0 0  0 1 0\nCamera \"orthographic\"\n"
-       << "Film \"rgb\" \"integer xresolution\" [ " << res << " ] \"integer yresolution\" [ "
-       << res << " ]\nSampler \"zsobol\" \"integer pixelsamples\" [ " << spp << " ]\n"
+       << "Film \"rgb\" \"integer xresolution\" [ " << res << " ] \"integer yresolution\" [ " << res
+       << " ]\nSampler \"zsobol\" \"integer pixelsamples\" [ " << spp << " ]\n"
        << "PixelFilter \"box\"\nIntegrator \"path\" \"integer maxdepth\" [ 64 ]\nWorldBegin\n"
        << "LightSource \"infinite\" \"rgb L\" [ 1 1 1 ]\n"
        << material << "\n"
@@ -77,8 +77,9 @@ TEST_CASE("hair material: the absorption comes from sigma_a, else a colour, else
     }
     SUBCASE("sigma_a wins over a colour and melanin, each ignored with a warning") {
         int before = warning_count();
-        HairBxdf h = hair_at(*build("Material \"hair\" \"rgb sigma_a\" [ 0.1 0.2 0.3 ] "
-                                    "\"rgb reflectance\" [ 0.5 0.5 0.5 ] \"float eumelanin\" 2"));
+        HairBxdf h =
+            hair_at(*build("Material \"hair\" \"rgb sigma_a\" [ 0.1 0.2 0.3 ] "
+                           "\"rgb reflectance\" [ 0.5 0.5 0.5 ] \"float eumelanin\" 2"));
         CHECK(warning_count() == before + 2);
         CHECK(last_warning().find("\"eumelanin\" ignored since \"sigma_a\" was given") !=
               std::string::npos);
@@ -98,15 +99,17 @@ TEST_CASE("hair material: the absorption comes from sigma_a, else a colour, else
     }
     SUBCASE("bump mapping is ignored with a warning, as pbrt-v4 has none for hair") {
         int before = warning_count();
-        auto sc = build("Texture \"bumps\" \"float\" \"checkerboard\"\n"
-                        "Material \"hair\" \"texture displacement\" \"bumps\"");
+        auto sc = build(
+            "Texture \"bumps\" \"float\" \"checkerboard\"\n"
+            "Material \"hair\" \"texture displacement\" \"bumps\"");
         CHECK(warning_count() == before + 1);
         CHECK(last_warning().find("not supported on hair") != std::string::npos);
         hair_at(*sc);  // the frame is the fiber's own
     }
     SUBCASE("melanin concentrations; roughness clamped to [0.01, 1]") {
-        HairBxdf h = hair_at(*build("Material \"hair\" \"float pheomelanin\" 2 "
-                                    "\"float beta_m\" 3 \"float beta_n\" 0"));
+        HairBxdf h =
+            hair_at(*build("Material \"hair\" \"float pheomelanin\" 2 "
+                           "\"float beta_m\" 3 \"float beta_n\" 0"));
         Rgb s = HairBxdf::sigma_a_from_concentration(0.f, 2.f);
         CHECK(h.sigma_a.r == test::Approx(s.r).epsilon(1e-6));
         HairBxdf ref(0.5f, 1.55f, s, 1.f, 0.01f, 2.f);
@@ -124,11 +127,11 @@ TEST_CASE("hair material: a white furnace stays white; melanin absorbs red least
     // The hair covers the view (an image of exactly 1 would also be an empty view): pixels
     // vary around 1.
     double spread = 0;
-    for (float v : img.data) spread = std::max(spread, std::abs(double(v) - 1.0));
+    for (float v : img.data)
+        spread = std::max(spread, std::abs(double(v) - 1.0));
     CHECK(spread > 1e-3);
-    MESSAGE("white furnace: " << test::image_mean(img, 0) << " " << test::image_mean(img, 1)
-                              << " " << test::image_mean(img, 2) << ", max |pixel - 1| "
-                              << spread);
+    MESSAGE("white furnace: " << test::image_mean(img, 0) << " " << test::image_mean(img, 1) << " "
+                              << test::image_mean(img, 2) << ", max |pixel - 1| " << spread);
     for (int c = 0; c < 3; ++c) {
         double m = test::image_mean(img, c);
         CAPTURE(c);

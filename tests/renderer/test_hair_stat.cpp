@@ -17,7 +17,8 @@ namespace {
 /// pbrt-v4's loops `for (beta = start; beta < 1; beta += .2)`.
 std::vector<float> betas(float start) {
     std::vector<float> out;
-    for (float b = start; b < 1.f; b += 0.2f) out.push_back(b);
+    for (float b = start; b < 1.f; b += 0.2f)
+        out.push_back(b);
     return out;
 }
 
@@ -32,7 +33,9 @@ struct Rng {
     }
 };
 
-float random_h(Rng &rng) { return clamp(-1.f + 2.f * rng(), -0.999999f, 0.999999f); }
+float random_h(Rng &rng) {
+    return clamp(-1.f + 2.f * rng(), -0.999999f, 0.999999f);
+}
 
 }  // namespace
 
@@ -58,7 +61,8 @@ TEST_CASE("hair: white furnace, f integrated over the sphere (pbrt-v4 Hair.White
                     wi = sampling::square_to_uniform_sphere(u);
                 } else {
                     auto s = b.sample_f(wo, uc, u, TransportMode::Radiance);
-                    if (!s) continue;
+                    if (!s)
+                        continue;
                     wi = s->wi;
                 }
                 double p = 0.5 * kInv4Pi + 0.5 * b.pdf(wo, wi, TransportMode::Radiance);
@@ -96,10 +100,12 @@ TEST_CASE("hair: white furnace through sample_f, and every sample weight is 1") 
                 HairBxdf b(random_h(rng), 1.55f, Rgb(0.f), bm, bn, 0.f);
                 float uc = rng();
                 auto s = b.sample_f(wo, uc, rng.two(), TransportMode::Radiance);
-                if (!s || !(s->pdf > 0.f)) continue;
+                if (!s || !(s->pdf > 0.f))
+                    continue;
                 double w = (s->f * std::abs(s->wi.z)).average() / s->pdf;
                 sum += w;
-                if (!(w > 0.99 && w < 1.01)) ++bad_weights;
+                if (!(w > 0.99 && w < 1.01))
+                    ++bad_weights;
                 CHECK(std::abs(length(s->wi) - 1.f) < 1e-4f);
             }
             CAPTURE(bm);
@@ -152,7 +158,8 @@ TEST_CASE("hair: chi-square of sample_f against pdf") {
         opt.num_tests = 3;
         auto sampler = [&](Vec2f u, float uc) -> std::optional<Vec3f> {
             auto s = b.sample_f(wo, uc, u, TransportMode::Radiance);
-            if (!s) return std::nullopt;
+            if (!s)
+                return std::nullopt;
             return s->wi;
         };
         auto pdf = [&](Vec3f wi) -> double { return b.pdf(wo, wi, TransportMode::Radiance); };
@@ -184,8 +191,8 @@ TEST_CASE("hair: absorption from melanin and from a colour (pbrt-v4's formulas)"
     CHECK(p.g == test::Approx(0.8).epsilon(1e-6));
     // (ln c / denom(beta_n))^2 with denom(0.3) = 5.969 - 0.0645 + 0.22788 - 0.28971 + 0.045149
     // + 0.00059535.
-    const double denom = 5.969 - 0.215 * 0.3 + 2.532 * 0.09 - 10.73 * 0.027 + 5.574 * 0.0081 +
-                         0.245 * 0.00243;
+    const double denom =
+        5.969 - 0.215 * 0.3 + 2.532 * 0.09 - 10.73 * 0.027 + 5.574 * 0.0081 + 0.245 * 0.00243;
     Rgb r = HairBxdf::sigma_a_from_reflectance(Rgb(0.5f, 0.25f, 1.f), 0.3f);
     CHECK(r.r == test::Approx(std::pow(std::log(0.5) / denom, 2)).epsilon(1e-5));
     CHECK(r.g == test::Approx(std::pow(std::log(0.25) / denom, 2)).epsilon(1e-5));
@@ -262,8 +269,10 @@ double spread_theta(const HairBxdf &b, Vec3f wo, float phi_i_deg) {
 
 /// Wraps degrees to (-180, 180].
 float wrap_deg(float d) {
-    while (d > 180.f) d -= 360.f;
-    while (d <= -180.f) d += 360.f;
+    while (d > 180.f)
+        d -= 360.f;
+    while (d <= -180.f)
+        d += 360.f;
     return d;
 }
 

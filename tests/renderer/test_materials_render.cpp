@@ -63,8 +63,8 @@ TEST_CASE("coatedconductor reads pbrt-v4's parameters; a clear coat over a mirro
            << "Film \"rgb\" \"integer xresolution\" [ 4 ] \"integer yresolution\" [ 4 ]\n"
            << "Sampler \"zsobol\" \"integer pixelsamples\" [ 16 ]\nPixelFilter \"box\"\n"
            << "Integrator \"path\" \"integer maxdepth\" [ 1 ]\nWorldBegin\n"
-           << "LightSource \"infinite\" \"rgb L\" [ 1 1 1 ]\n" << mat
-           << "\nShape \"trianglemesh\" \"point3 P\" [ -9 -9 0  9 -9 0  9 9 0  -9 9 0 ]\n"
+           << "LightSource \"infinite\" \"rgb L\" [ 1 1 1 ]\n"
+           << mat << "\nShape \"trianglemesh\" \"point3 P\" [ -9 -9 0  9 -9 0  9 9 0  -9 9 0 ]\n"
            << "  \"integer indices\" [ 0 1 2  0 2 3 ]\n";
         return image_mean(render_image(*scene_from_string(os.str())), 1);
     };
@@ -88,8 +88,9 @@ TEST_CASE("coatedconductor reads pbrt-v4's parameters; a clear coat over a mirro
         cs.fx = cs.fy = 0.5f;
         CHECK(w.evaluate(cs).radiance.g == test::Approx(1.0).epsilon(2e-3));
     }
-    double thick = furnace("Material \"coatedconductor\" \"rgb reflectance\" [ 1 1 1 ] "
-                           "\"float thickness\" [ 0.5 ]");
+    double thick = furnace(
+        "Material \"coatedconductor\" \"rgb reflectance\" [ 1 1 1 ] "
+        "\"float thickness\" [ 0.5 ]");
     CHECK(thick < 0.5);
     CHECK(thick > 0.2);
     // Without a coat (interface.eta 1) it is the conductor itself.

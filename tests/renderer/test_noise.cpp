@@ -9,6 +9,7 @@
 #include "approx.h"
 #include "renderer/noise.h"
 #include "renderer/texture.h"
+#include "texture_test_util.h"
 
 using namespace tessera;
 
@@ -71,26 +72,6 @@ TEST_CASE("noise: fBm and turbulence, full band and band-limited by the footprin
 
 namespace {
 
-TextureDesc noise_desc(const std::string &name, const std::string &type, const std::string &cls,
-                       std::vector<Param> params = {}) {
-    TextureDesc d;
-    d.name = name;
-    d.value_type = type;
-    d.tex_class = cls;
-    d.params.params = std::move(params);
-    d.loc = {"noise.pbrt", 3};
-    return d;
-}
-
-Param number(const std::string &type, const std::string &name, double v) {
-    Param p;
-    p.type = type;
-    p.name = name;
-    p.numbers = {v};
-    p.loc = {"noise.pbrt", 3};
-    return p;
-}
-
 TextureEvalContext at_point(Vec3f p) {
     TextureEvalContext c;
     c.p = p;
@@ -104,10 +85,10 @@ TEST_CASE("noise textures: fbm, wrinkled, windy and marble in the Texture statem
     // texture at render point 2 p is the noise at p.
     Transform scale2 = Transform::scale(2.f, 2.f, 2.f);
     std::vector<TextureDesc> descs = {
-        noise_desc("f", "float", "fbm", {number("integer", "octaves", 8)}),
-        noise_desc("w", "float", "wrinkled", {number("float", "roughness", 0.5)}),
-        noise_desc("wind", "float", "windy"),
-        noise_desc("m", "spectrum", "marble"),
+        test::desc("f", "float", "fbm", {test::num("integer", "octaves", {8})}),
+        test::desc("w", "float", "wrinkled", {test::num("float", "roughness", {0.5})}),
+        test::desc("wind", "float", "windy"),
+        test::desc("m", "spectrum", "marble"),
     };
     descs[0].render_from_texture = scale2;
     TextureSet set(descs);
@@ -115,8 +96,7 @@ TEST_CASE("noise textures: fbm, wrinkled, windy and marble in the Texture statem
     CHECK(set.get_float("f")->evaluate(at_point(p * 2.f)) ==
           test::Approx(0.225766793).epsilon(1e-4));
     CHECK(set.get_float("w")->evaluate(at_point(p)) == test::Approx(0.362411022).epsilon(1e-5));
-    CHECK(set.get_float("wind")->evaluate(at_point(p)) ==
-          test::Approx(0.0129190646).epsilon(1e-3));
+    CHECK(set.get_float("wind")->evaluate(at_point(p)) == test::Approx(0.0129190646).epsilon(1e-3));
     CHECK(set.get_float("wind")->evaluate(at_point({1.3f, -2.7f, 3.9f})) ==
           test::Approx(0.00748719322).epsilon(1e-3));
     Rgb m = set.get_spectrum("m")->evaluate(at_point(p));
@@ -130,16 +110,18 @@ TEST_CASE("noise textures: fbm, wrinkled, windy and marble in the Texture statem
     c.dpdx = Vec3f(0.02f, 0.f, 0.f);
     CHECK(set.get_float("f")->evaluate(c) == test::Approx(0.225091159).epsilon(1e-4));
     // pbrt-v4 has no spectrum fbm and no float marble.
-    CHECK_THROWS_AS(TextureSet({noise_desc("x", "spectrum", "fbm")}), SceneError);
-    CHECK_THROWS_AS(TextureSet({noise_desc("x", "float", "marble")}), SceneError);
-    CHECK_THROWS_AS(TextureSet({noise_desc("x", "float", "fbm", {number("integer", "octaves", -1)})}),
-                    SceneError);
+    CHECK_THROWS_AS(TextureSet({test::desc("x", "spectrum", "fbm")}), SceneError);
+    CHECK_THROWS_AS(TextureSet({test::desc("x", "float", "marble")}), SceneError);
+    CHECK_THROWS_AS(
+        TextureSet({test::desc("x", "float", "fbm", {test::num("integer", "octaves", {-1})})}),
+        SceneError);
 }
 
 TEST_CASE("noise textures: dots, with pbrt-v4's inside and outside") {
-    TextureSet set({noise_desc("d", "float", "dots",
-                               {number("float", "inside", 0.25), number("float", "outside", 0.75)}),
-                    noise_desc("plain", "spectrum", "dots")});
+    TextureSet set(
+        {test::desc("d", "float", "dots",
+                    {test::num("float", "inside", {0.25}), test::num("float", "outside", {0.75})}),
+         test::desc("plain", "spectrum", "dots")});
     auto at_st = [](float s, float t) {
         TextureEvalContext c;
         c.uv = {s, t};
@@ -149,8 +131,8 @@ TEST_CASE("noise textures: dots, with pbrt-v4's inside and outside") {
     // (-2, 7), (4, 1). pbrt-v4 shows "outside" in the dots and "inside" elsewhere.
     for (Vec2f st : {Vec2f(0.1f, 2.05f), Vec2f(5.f, 5.f), Vec2f(2.f, 3.f)})
         CHECK(set.get_float("d")->evaluate(at_st(st.x, st.y)) == 0.75f);
-    for (Vec2f st : {Vec2f(0.f, 0.f), Vec2f(1.f, 0.f), Vec2f(3.02f, -1.1f), Vec2f(-2.f, 7.f),
-                     Vec2f(4.f, 1.f)})
+    for (Vec2f st :
+         {Vec2f(0.f, 0.f), Vec2f(1.f, 0.f), Vec2f(3.02f, -1.1f), Vec2f(-2.f, 7.f), Vec2f(4.f, 1.f)})
         CHECK(set.get_float("d")->evaluate(at_st(st.x, st.y)) == 0.25f);
     // Defaults: 0 in the dots, 1 elsewhere; about a fifth of the plane is dots (half the cells
     // hold one, of area pi 0.35^2 each).
@@ -163,19 +145,22 @@ TEST_CASE("noise textures: dots, with pbrt-v4's inside and outside") {
 }
 
 TEST_CASE("noise textures: parameters are read (octaves, scale, variation, the dots mapping)") {
-    TextureSet set({noise_desc("f2", "float", "fbm", {number("integer", "octaves", 2)}),
-                    noise_desc("w3", "float", "wrinkled", {number("float", "roughness", 0.3)}),
-                    noise_desc("flat", "spectrum", "marble",
-                               {number("float", "variation", 0.0), number("float", "scale", 2.0)}),
-                    noise_desc("d1", "float", "dots"),
-                    noise_desc("d2", "float", "dots", {number("float", "uscale", 2.0)})});
+    TextureSet set(
+        {test::desc("f2", "float", "fbm", {test::num("integer", "octaves", {2})}),
+         test::desc("w3", "float", "wrinkled", {test::num("float", "roughness", {0.3})}),
+         test::desc("flat", "spectrum", "marble",
+                    {test::num("float", "variation", {0.0}), test::num("float", "scale", {2.0})}),
+         test::desc("d1", "float", "dots"),
+         test::desc("d2", "float", "dots", {test::num("float", "uscale", {2.0})})});
     const Vec3f p(0.25f, 0.75f, 0.1f), zero(0.f, 0.f, 0.f);
     CHECK(set.get_float("f2")->evaluate(at_point(p)) == fbm(p, zero, zero, 0.5f, 2));
     CHECK(set.get_float("f2")->evaluate(at_point(p)) != fbm(p, zero, zero, 0.5f, 8));
     CHECK(set.get_float("w3")->evaluate(at_point(p)) == turbulence(p, zero, zero, 0.3f, 8));
     // Without variation, marble is sin(scale y) through the colour spline, whose segment ends
     // are pbrt-v4's colours times 1.5: sin -1, 0, 1 give colours 0, 3 and 8.
-    auto marble_at_y = [&](float y) { return set.get_spectrum("flat")->evaluate(at_point({0.3f, y, 0.2f})); };
+    auto marble_at_y = [&](float y) {
+        return set.get_spectrum("flat")->evaluate(at_point({0.3f, y, 0.2f}));
+    };
     Rgb top = marble_at_y(0.25f * kPi), mid = marble_at_y(0.f), bottom = marble_at_y(-0.25f * kPi);
     CHECK(top.r == test::Approx(1.5 * 0.58).epsilon(1e-5));
     CHECK(top.b == test::Approx(1.5 * 0.60).epsilon(1e-5));
@@ -191,8 +176,10 @@ TEST_CASE("noise textures: parameters are read (octaves, scale, variation, the d
     int differ = 0;
     for (int i = 0; i < 400; ++i) {
         float u = 0.0371f * float(i), v = 0.0173f * float(i);
-        CHECK(set.get_float("d2")->evaluate(at_st(u, v)) == set.get_float("d1")->evaluate(at_st(2.f * u, v)));
-        differ += set.get_float("d2")->evaluate(at_st(u, v)) != set.get_float("d1")->evaluate(at_st(u, v));
+        CHECK(set.get_float("d2")->evaluate(at_st(u, v)) ==
+              set.get_float("d1")->evaluate(at_st(2.f * u, v)));
+        differ += set.get_float("d2")->evaluate(at_st(u, v)) !=
+                  set.get_float("d1")->evaluate(at_st(u, v));
     }
     CHECK(differ > 0);
     // No dot beyond int's range, and no undefined conversion on the way.

@@ -10,47 +10,16 @@
 #include "approx.h"
 #include "renderer/texture.h"
 #include "test_helpers.h"
+#include "texture_test_util.h"
 
 using namespace tessera;
+using tessera::test::desc;
+using tessera::test::flag;
+using tessera::test::num;
+using tessera::test::str;
 namespace fs = std::filesystem;
 
 namespace {
-
-Param num(const std::string &type, const std::string &name, std::vector<double> v) {
-    Param p;
-    p.type = type;
-    p.name = name;
-    p.numbers = std::move(v);
-    p.loc = {"test.pbrt", 1};
-    return p;
-}
-Param str(const std::string &type, const std::string &name, const std::string &v) {
-    Param p;
-    p.type = type;
-    p.name = name;
-    p.strings = {v};
-    p.loc = {"test.pbrt", 1};
-    return p;
-}
-Param flag(const std::string &name, bool v) {
-    Param p;
-    p.type = "bool";
-    p.name = name;
-    p.bools = {uint8_t(v)};
-    return p;
-}
-
-TextureDesc desc(const std::string &name, const std::string &type, const std::string &cls,
-                 std::vector<Param> params, Transform render_from_texture = {}) {
-    TextureDesc d;
-    d.name = name;
-    d.value_type = type;
-    d.tex_class = cls;
-    d.params.params = std::move(params);
-    d.loc = {"test.pbrt", 7};
-    d.render_from_texture = render_from_texture;
-    return d;
-}
 
 TextureEvalContext at_uv(float u, float v, float dudx = 0, float dvdy = 0) {
     TextureEvalContext c;
