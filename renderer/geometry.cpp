@@ -164,6 +164,22 @@ int Geometry::new_prototype(const std::string &name) {
 
 RTCScene Geometry::rtc_scene() const { return groups_[0]->scene; }
 
+std::vector<const TriangleMesh *> Geometry::meshes_by_geom_id() const {
+    const GeometryGroup &g = *groups_[0];
+    std::vector<const TriangleMesh *> out;
+    if (instance_count_ > 0)
+        return out;
+    for (const auto &rec : g.records) {
+        if (rec.kind != GeometryGroup::Record::Kind::Mesh)
+            return {};
+        const TriangleMesh *m = g.meshes[size_t(rec.index)].get();
+        if (m->alpha_texture || m->alpha < 1.f)
+            return {};
+        out.push_back(m);
+    }
+    return out;
+}
+
 const std::vector<std::unique_ptr<TriangleMesh>> &Geometry::top_level_meshes() const {
     return groups_[0]->meshes;
 }

@@ -143,6 +143,10 @@ class Geometry {
     void set_filter_every_mesh(bool on) { filter_every_mesh_ = on; }
     /// The top-level Embree scene (benchmarks compare against raw Embree calls on it).
     RTCScene rtc_scene() const;
+    /// The top level's meshes indexed by Embree geomID, when the top level holds opaque
+    /// triangle meshes and nothing else (no instances, quadrics, curves or alpha tests: the
+    /// path tracer's packet kernel reads hits straight from Embree); empty otherwise.
+    std::vector<const TriangleMesh *> meshes_by_geom_id() const;
     /// Meshes of the top level (for building area lights).
     const std::vector<std::unique_ptr<TriangleMesh>> &top_level_meshes() const;
 

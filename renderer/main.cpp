@@ -160,9 +160,10 @@ int main(int argc, char **argv) {
     render->add_option("--exposure", ro.display.exposure_stops, "PNG exposure in stops");
     render->add_flag("-q,--quiet", ro.quiet, "No progress bar or summary");
     std::string no_specialize;
-    render->add_flag("--no-specialize{all}", no_specialize,
-                     "Force the general code paths (benchmarks): all, or --no-specialize=NAME,... "
-                     "of differentials, lambertian, cull, alpha, attributes (renderer/specialize.h)");
+    render->add_flag(
+        "--no-specialize{all}", no_specialize,
+        "Force the general code paths (benchmarks): all, or --no-specialize=NAME,... "
+        "of differentials, lambertian, packet, cull, alpha, attributes (renderer/specialize.h)");
 
     CLI::App *samplers =
         app.add_subcommand("samplers", "List the sampler plugins with their keys and defaults");

@@ -62,13 +62,19 @@ TextureEvalContext texture_context(const SurfaceInteraction &si) {
 
 PathIntegrator::PathIntegrator(const Scene &scene, uint32_t seed, int max_depth,
                                DirectStrategy strategy, uint32_t disabled)
-    : scene_(scene), seed_(seed), max_depth_(max_depth), strategy_(strategy),
-      spp_hint_(scene.settings.spp), spec_(applicable_specializations(scene) & ~disabled) {
+    : scene_(scene),
+      seed_(seed),
+      max_depth_(max_depth),
+      strategy_(strategy),
+      spp_hint_(scene.settings.spp),
+      spec_(used_specializations(applicable_specializations(scene), disabled)) {
     differentials_ = !(spec_ & kSpecDifferentials);
     cull_ = spec_ & kSpecCull;
     if (spec_ & kSpecLambertian) {
         lambertian_.reserve(scene.materials.size());
         for (const auto &m : scene.materials) lambertian_.push_back(*m->constant_lambertian());
+        if (spec_ & kSpecPacket)
+            packet_meshes_ = scene.geometry->meshes_by_geom_id();
     }
 }
 
@@ -123,6 +129,10 @@ Sample PathIntegrator::evaluate(const CameraSample &cs) const {
 
 void PathIntegrator::evaluate_batch(std::span<const CameraSample> samples,
                                     std::span<Sample> out) const {
+    if (!packet_meshes_.empty() && samples.size() > 1) {
+        trace_packet(samples, out);
+        return;
+    }
     constexpr size_t kPacket = 8;
     for (size_t base = 0; base < samples.size(); base += kPacket) {
         const size_t n = std::min(kPacket, samples.size() - base);

@@ -39,7 +39,8 @@ class PathIntegrator final : public SampleSource {
     /// Thread-safe; a pure function of the camera sample and the seed.
     Sample evaluate(const CameraSample &cs) const override;
     /// The same samples as evaluate(), their camera rays traced as 8-wide packets (a pixel's
-    /// consecutive samples are nearly coherent); the paths continue one by one.
+    /// consecutive samples are nearly coherent); the paths continue one by one, or, with the
+    /// packet specialisation, 8 at a time in lockstep (trace_packet).
     void evaluate_batch(std::span<const CameraSample> samples,
                         std::span<Sample> out) const override;
     std::string describe() const override;
@@ -67,6 +68,11 @@ class PathIntegrator final : public SampleSource {
     PathResult trace_impl(const CameraRay &cray, sampling::SobolSampler &sampler,
                           std::optional<SurfaceInteraction> *first) const;
 
+    /// The "packet" specialisation (renderer/path_packet.cpp): the samples traced 8 paths at a
+    /// time in lockstep (a lane whose path ends takes the next sample), each bounce's
+    /// arithmetic lane-parallel; every sample gets trace_impl<true>'s result.
+    void trace_packet(std::span<const CameraSample> samples, std::span<Sample> out) const;
+
     const Scene &scene_;
     uint32_t seed_;
     int max_depth_;
@@ -76,6 +82,8 @@ class PathIntegrator final : public SampleSource {
     bool differentials_ = true;   ///< ray differentials and texture footprints are computed
     bool cull_ = false;           ///< no shadow rays toward lights that cannot contribute
     std::vector<Rgb> lambertian_; ///< per material: its reflectance (lambertian specialisation)
+    /// The packet specialisation's meshes by Embree geomID; empty when it is off.
+    std::vector<const TriangleMesh *> packet_meshes_;
 };
 
 }  // namespace tessera

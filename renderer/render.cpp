@@ -455,8 +455,10 @@ RenderReport run_render(const RenderOptions &opt) {
             const uint32_t applicable = applicable_specializations(*scene);
             j["specializations"] = {
                 {"applicable", specialization_names(applicable)},
-                {"used", specialization_names(applicable & ~opt.no_specialize)},
-                {"forced_general", specialization_names(applicable & opt.no_specialize)}};
+                {"used", specialization_names(used_specializations(applicable, opt.no_specialize))},
+                {"forced_general",
+                 specialization_names(applicable &
+                                      ~used_specializations(applicable, opt.no_specialize))}};
             j["code_path"] = integrator->describe();
         }
         j["version"] = TESSERA_VERSION;

@@ -18,6 +18,7 @@ constexpr Named kNames[] = {
     {"cull", kSpecCull},
     {"alpha", kSpecAlpha},
     {"attributes", kSpecAttributes},
+    {"packet", kSpecPacket},
 };
 
 }  // namespace
@@ -70,11 +71,20 @@ uint32_t applicable_specializations(const Scene &scene) {
     bool lambertian = !scene.materials.empty();
     for (const auto &m : scene.materials) lambertian &= m->constant_lambertian().has_value();
     if (lambertian) mask |= kSpecLambertian;
+    if (lambertian && scene.geometry && !scene.geometry->meshes_by_geom_id().empty())
+        mask |= kSpecPacket;
     if (!scene.lights.empty()) mask |= kSpecCull;
     if (scene.geometry && scene.geometry->opaque_mesh_count() > 0) mask |= kSpecAlpha;
     // kSpecAttributes is the real-time loop's (what is collected depends on the frame plugin;
     // its stats report attributes_collected): not listed here.
     return mask;
+}
+
+uint32_t used_specializations(uint32_t applicable, uint32_t disabled) {
+    uint32_t used = applicable & ~disabled;
+    if (!(used & kSpecLambertian))
+        used &= ~uint32_t(kSpecPacket);
+    return used;
 }
 
 }  // namespace tessera

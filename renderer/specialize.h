@@ -17,6 +17,11 @@
 //   alpha          Embree intersection-filter callbacks only on alpha-tested meshes; the
 //                  general path attaches them to every mesh (they accept every hit of an
 //                  opaque one). Chosen where the scene is built (SceneOverrides::no_specialize).
+//   packet         On top of "lambertian", where the geometry is opaque triangle meshes only
+//                  (no instances, quadrics, curves or alpha tests): a pixel's samples are
+//                  traced 8 at a time in lockstep, every ray round as one Embree packet, and
+//                  each bounce's arithmetic (hit point, frame, sampler, BSDF, MIS, offsets,
+//                  roulette) runs lane-parallel (renderer/path_packet.cpp); bit-identical.
 //   attributes     Real-time frame plugins: the Whitted integrator collects only the attribute
 //                  groups (sampling/sample_source.h) the plugin reads and the scene can have --
 //                  no secondary-hit attributes without a specular material, no uv without a
@@ -42,7 +47,8 @@ enum Specialization : uint32_t {
     kSpecCull = 1u << 2,           ///< "cull"
     kSpecAlpha = 1u << 3,          ///< "alpha"
     kSpecAttributes = 1u << 4,     ///< "attributes"
-    kSpecAll = (1u << 5) - 1,
+    kSpecPacket = 1u << 5,         ///< "packet"
+    kSpecAll = (1u << 6) - 1,
 };
 
 /// Parses a comma-separated list of specialisation names ("all" = every one) into bits.
@@ -55,5 +61,9 @@ std::string specialization_names(uint32_t mask);
 /// The progressive path tracer's specialisations whose property `scene` has (cull applies to
 /// every scene with lights). kSpecAttributes, the real-time loop's, is never included.
 uint32_t applicable_specializations(const Scene &scene);
+
+/// The specialisations in use: `applicable` less those forced off in `disabled`, and less those
+/// that build on one forced off ("packet" needs "lambertian").
+uint32_t used_specializations(uint32_t applicable, uint32_t disabled);
 
 }  // namespace tessera
