@@ -17,6 +17,7 @@
 // light before building the sampler.
 #pragma once
 
+#include <algorithm>
 #include <optional>
 #include <span>
 #include <string>
@@ -63,5 +64,20 @@ class PowerLightSampler {
     float p_infinite_ = 0;  ///< probability of choosing the infinite-extent group
     std::unordered_map<const Light *, size_t> index_;
 };
+
+/// Inline: the path tracer picks a light with it at every vertex.
+inline std::optional<PowerLightSampler::Sampled> PowerLightSampler::sample(float u,
+                                                                    float *u_remapped) const {
+    if (lights_.empty())
+        return std::nullopt;
+    // Choose the group with u, then reuse the rest of u (rescaled to [0,1)) inside it.
+    int g = u < p_infinite_ ? 1 : 0;
+    float ug = g == 1 ? u / p_infinite_ : (u - p_infinite_) / (1.f - p_infinite_);
+    ug = std::clamp(ug, 0.f, kOneMinusEpsilon);
+    float group_pmf = 0;
+    int k = table_[g].sample(ug, &group_pmf, u_remapped);
+    size_t i = members_[g][size_t(k)];
+    return Sampled{lights_[i], pmf_[i]};
+}
 
 }  // namespace tessera

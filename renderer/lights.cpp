@@ -442,7 +442,7 @@ std::string ImageInfiniteLight::describe() const {
 // TriangleLight
 
 TriangleLight::TriangleLight(Vec3f p0, Vec3f p1, Vec3f p2, Vec3f n, Rgb radiance, bool twosided)
-    : p0_(p0), p1_(p1), p2_(p2), n_(normalize(n)), L_(radiance), twosided_(twosided) {
+    : Light(LightShape::Triangle), p0_(p0), p1_(p1), p2_(p2), n_(normalize(n)), L_(radiance), twosided_(twosided) {
     area_ = 0.5f * length(cross(p1 - p0, p2 - p0));
 }
 

@@ -63,7 +63,7 @@ inline std::optional<LightLiSample> sample_toward(const LightSampleContext &ctx,
 }
 
 /// The concrete class of a light where a caller may call it directly (see shape()).
-enum class LightShape : uint8_t { Other, Point, Spot };
+enum class LightShape : uint8_t { Other, Point, Spot, Triangle };
 
 /// Interface of all lights.
 class Light {
@@ -290,6 +290,13 @@ class TriangleLight final : public Light {
     Rgb phi() const override;
     std::string describe() const override;
     float area() const { return area_; }
+    /// What sample_li reads (the path tracer's packet kernel samples 8 lanes at once).
+    Vec3f p0() const { return p0_; }
+    Vec3f p1() const { return p1_; }
+    Vec3f p2() const { return p2_; }
+    Vec3f normal() const { return n_; }
+    Rgb radiance() const { return L_; }
+    bool twosided() const { return twosided_; }
 
   private:
     Vec3f p0_, p1_, p2_, n_;

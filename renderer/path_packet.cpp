@@ -229,9 +229,18 @@ void sobol_2d(vu pixel_hash, vu dim, vu index_rev, vf &ux, vf &uy) {
     const vu h = hash_dimension(pixel_hash, dim);
     const vu z = laine_karras(index_rev, mix_bits(h ^ 0x68bc21ebu));
     const vu x_rev = laine_karras(reverse_bits(z), mix_bits(h + 1u));
-    vu d1;
-    for (int i = 0; i < kLanes; ++i)
-        d1[i] = sampling::sobol_dim1_reversed(z[i]);
+    // sampling::sobol_dim1_reversed: four byte-indexed tables, XORed.
+#ifdef __AVX2__
+    const auto &table = sampling::detail::kSobolDim1ReversedTable;
+    auto gather = [](const uint32_t *t, vu idx) {
+        return (vu)_mm256_i32gather_epi32(reinterpret_cast<const int *>(t), (__m256i)idx, 4);
+    };
+    const vu d1 = gather(table[0].data(), z & 0xffu) ^ gather(table[1].data(), (z >> 8) & 0xffu) ^
+                  gather(table[2].data(), (z >> 16) & 0xffu) ^ gather(table[3].data(), z >> 24);
+#else
+    vu d1 = z;
+    for (int i = 0; i < kLanes; ++i) d1[i] = sampling::sobol_dim1_reversed(z[i]);
+#endif
     const vu y_rev = laine_karras(d1, mix_bits(h + 2u));
     ux = fixed_to_unit(reverse_bits(x_rev));
     uy = fixed_to_unit(reverse_bits(y_rev));
@@ -352,10 +361,18 @@ void PathIntegrator::trace_packet(std::span<const CameraSample> samples,
         if (n_live == 0)
             break;
 
-        // Trace the live lanes' rays.
+        // Trace the live lanes' rays. A lane whose ray escapes finishes at once and takes the
+        // next sample, whose camera ray is traced before the round goes on: the lane-parallel
+        // steps below then run on full lanes (most camera rays of an object on a plain
+        // background miss it).
+        for (int i = 0; i < kLanes; ++i)
+            bounce[size_t(i)] = false;
+        std::array<bool, kLanes> pending = live;
+        while (pending[0] | pending[1] | pending[2] | pending[3] | pending[4] | pending[5] |
+               pending[6] | pending[7]) {
         std::memset(&rh, 0, sizeof(rh));
         for (int i = 0; i < kLanes; ++i) {
-            valid[i] = live[size_t(i)] ? -1 : 0;
+            valid[i] = pending[size_t(i)] ? -1 : 0;
             rh.ray.org_x[i] = o.x[i];
             rh.ray.org_y[i] = o.y[i];
             rh.ray.org_z[i] = o.z[i];
@@ -375,8 +392,8 @@ void PathIntegrator::trace_packet(std::span<const CameraSample> samples,
         }
 
         // Per lane: escapes, and the hit triangle's data.
+        pending = {};
         for (int i = 0; i < kLanes; ++i) {
-            bounce[size_t(i)] = false;
             if (!valid[i])
                 continue;
             ++res[size_t(i)].rays;
@@ -405,6 +422,8 @@ void PathIntegrator::trace_packet(std::span<const CameraSample> samples,
                 }
                 L.set(i, Li);
                 live[size_t(i)] = false;
+                finish_lane(i);
+                pending[size_t(i)] = live[size_t(i)];
                 continue;
             }
             const TriangleMesh &m = *meshes[rh.hit.geomID[i]];
@@ -435,6 +454,7 @@ void PathIntegrator::trace_packet(std::span<const CameraSample> samples,
             b2[i] = rh.hit.v[i];
             t_hit[i] = rh.ray.tfar[i];
             bounce[size_t(i)] = true;
+        }
         }
 
         // Lane-parallel: Geometry's fill_triangle, then wo.
@@ -547,21 +567,36 @@ void PathIntegrator::trace_packet(std::span<const CameraSample> samples,
         sobol_2d(pixel_hash, dim + (nee_dims + 1u), index_rev, ub_x, ub_y);
         const vf u_rr = sobol_1d(pixel_hash, dim + (nee_dims + 3u), index_rev);
 
-        // Per lane: light selection and sampling.
+        // Per lane: light selection; other lights than triangles are sampled here, triangle
+        // lights' data is gathered for the lane-parallel sampling below.
+        V3 tp0, tp1, tp2, tn, tL;
+        vf t_area{}, t_pmf{};
+        vi t_twosided{}, t_lane{};
         for (int i = 0; i < kLanes; ++i) {
             ls_kind[size_t(i)] = 0;
-            if (!bounce[size_t(i)])
-                continue;
-            if (!(use_nee && !refl.rgb(i).is_black() && sc.light_sampler))
-                continue;
+            if (!bounce[size_t(i)]) continue;
+            if (!(use_nee && !refl.rgb(i).is_black() && sc.light_sampler)) continue;
             auto sampled = sc.light_sampler->sample(u_light[i]);
-            if (!sampled)
-                continue;
+            if (!sampled) continue;
             ls_kind[size_t(i)] = 3;
+            if (sampled->light->shape() == LightShape::Triangle) {
+                const auto *tri = static_cast<const TriangleLight *>(sampled->light);
+                t_lane[i] = -1;
+                tp0.set(i, tri->p0());
+                tp1.set(i, tri->p1());
+                tp2.set(i, tri->p2());
+                tn.set(i, tri->normal());
+                tL.set(i, tri->radiance());
+                t_area[i] = tri->area();
+                t_twosided[i] = tri->twosided() ? -1 : 0;
+                t_pmf[i] = sampled->pmf;
+                // A sample-only (invisible) emitter is a delta light to MIS: no ray finds it.
+                ls_delta[size_t(i)] = is_delta_light(tri->type());
+                continue;
+            }
             auto ls = sampled->light->sample_li(LightSampleContext{p.get(i), nn.get(i)},
                                                 {u2x[i], u2y[i]});
-            if (!(ls && (!cull_ || !ls->L.is_black()) && ls->pdf > 0))
-                continue;
+            if (!(ls && (!cull_ || !ls->L.is_black()) && ls->pdf > 0)) continue;
             const LightType lt = sampled->light->type();
             ls_delta[size_t(i)] = is_delta_light(lt);
             ls_kind[size_t(i)] =
@@ -571,6 +606,33 @@ void PathIntegrator::trace_packet(std::span<const CameraSample> samples,
             ls_p.set(i, ls->p_light);
             ls_pdf[i] = ls->pdf;
             ls_pmf[i] = sampled->pmf;
+        }
+        if (t_lane[0] | t_lane[1] | t_lane[2] | t_lane[3] | t_lane[4] | t_lane[5] | t_lane[6] |
+            t_lane[7]) {
+            // Lane-parallel TriangleLight::sample_li: a uniform point on the triangle
+            // (square_to_uniform_triangle), its direction and solid-angle density, the
+            // one-sided test and the radiance, with the same operations.
+            const vi lower = u2x < u2y;
+            const vf half_x = u2x / 2.f, half_y = u2y / 2.f;
+            const vf bx = lower ? half_x : u2x - half_y;
+            const vf by = lower ? u2y - half_x : half_y;
+            const V3 pl = tp0 * bx + tp1 * by + tp2 * (1.f - bx - by);
+            const V3 dl = pl - p;
+            const vf d2 = dot(dl, dl);
+            const vf inv_dist = 1.f / vsqrt(d2);
+            const V3 wi = dl * inv_dist;
+            const vf cos_l = vabs(dot(tn, wi));
+            const vf pdf = d2 / (t_area * cos_l);
+            const vi ok = t_lane & (t_area > 0.f) & (d2 != 0.f) & (cos_l != 0.f) &
+                          visfinite(pdf) & (pdf != 0.f) & (t_twosided | (dot(tn, wi) < 0.f)) &
+                          ~is_black(tL) & (pdf > 0.f);
+            ls_wi = select(ok, wi, ls_wi);
+            ls_L = select(ok, tL, ls_L);
+            ls_p = select(ok, pl, ls_p);
+            ls_pdf = ok ? pdf : ls_pdf;
+            ls_pmf = ok ? t_pmf : ls_pmf;
+            for (int i = 0; i < kLanes; ++i)
+                if (ok[i]) ls_kind[size_t(i)] = 1;
         }
 
         // Lane-parallel: the BSDF's value and density (LambertianBsdf::f_pdf), the MIS
@@ -609,6 +671,7 @@ void PathIntegrator::trace_packet(std::span<const CameraSample> samples,
             const V3 bfl = mul(mul(beta, f), ls_L);
             const vf w_mis = use_bsdf_emission ? power_heuristic(p_l, p_b) : splat(1.f);
             contrib = select(delta, div(bfl, p_l), bfl * (w_mis / p_l));
+
         }
 
         // Shadow rays as one packet.

@@ -178,29 +178,6 @@ AliasTable::AliasTable(std::span<const float> weights) {
         bins_[i].q = 1.f, bins_[i].alias = -1;
 }
 
-int AliasTable::sample(float u, float *pmf_out, float *u_remapped) const {
-    if (bins_.empty())
-        return -1;
-    const size_t n = bins_.size();
-    float scaled = u * float(n);
-    size_t o = std::min(size_t(scaled), n - 1);
-    float up = std::min(scaled - float(o), kOneMinusEpsilon);
-    int idx;
-    float r;
-    if (up < bins_[o].q || bins_[o].alias < 0) {
-        idx = int(o);
-        r = bins_[o].q > 0.f ? up / bins_[o].q : 0.f;
-    } else {
-        idx = bins_[o].alias;
-        r = (up - bins_[o].q) / (1.f - bins_[o].q);
-    }
-    if (pmf_out)
-        *pmf_out = bins_[size_t(idx)].p;
-    if (u_remapped)
-        *u_remapped = clamp(r, 0.f, kOneMinusEpsilon);
-    return idx;
-}
-
 Vec3f equal_area_square_to_sphere(Vec2f p) {
     // Fold the square onto [0,1]^2 of |u|,|v| in [-1,1]^2 coordinates; the signed distance
     // from the diagonal |u|+|v| = 1 selects the hemisphere (inside the diamond: +z).

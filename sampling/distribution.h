@@ -12,6 +12,7 @@
 // const method is thread-safe.
 #pragma once
 
+#include <algorithm>
 #include <cstddef>
 #include <cstdint>
 #include <span>
@@ -109,6 +110,30 @@ class AliasTable {
     };
     std::vector<Bin> bins_;
 };
+
+/// Inline: the path tracer picks a light with it at every vertex.
+inline int AliasTable::sample(float u, float *pmf_out, float *u_remapped) const {
+    if (bins_.empty())
+        return -1;
+    const size_t n = bins_.size();
+    float scaled = u * float(n);
+    size_t o = std::min(size_t(scaled), n - 1);
+    float up = std::min(scaled - float(o), kOneMinusEpsilon);
+    int idx;
+    float r;
+    if (up < bins_[o].q || bins_[o].alias < 0) {
+        idx = int(o);
+        r = bins_[o].q > 0.f ? up / bins_[o].q : 0.f;
+    } else {
+        idx = bins_[o].alias;
+        r = (up - bins_[o].q) / (1.f - bins_[o].q);
+    }
+    if (pmf_out)
+        *pmf_out = bins_[size_t(idx)].p;
+    if (u_remapped)
+        *u_remapped = clamp(r, 0.f, kOneMinusEpsilon);
+    return idx;
+}
 
 /// Equal-area octahedral map from the unit square to the unit sphere (Clarberg 2008, "Fast
 /// equal-area mapping of the (hemi)sphere using SIMD"; pbrt-v4's EqualAreaSquareToSphere).

@@ -254,7 +254,8 @@ TEST_CASE("the path tracer's camera-ray packets give every sample its own value"
 
 TEST_CASE("the packet kernel gives every sample the scalar path's value") {
     // Every feature the packet kernel handles, in one meshes-only Lambertian scene: an area
-    // light (one-sided quad), a point light, a distant light and a uniform environment (all
+    // light (one-sided quad), an invisible (alpha 0, sample-only: delta to MIS) triangle
+    // emitter, a point light, a distant light and a uniform environment (all
     // four light kinds: points, directions, escapes); shading normals and uvs on the floor; a
     // ReverseOrientation wall; a black material (no light sample, no continuation). Batches of
     // one pixel's 37 samples (lanes refilled
@@ -282,6 +283,9 @@ TEST_CASE("the packet kernel gives every sample the scalar path's value") {
         "0.8 ]\n"
         "Shape \"trianglemesh\" \"point3 P\" [ -2 0 1.5  2 0 1.5  2 2 1.5  -2 2 1.5 ]"
         " \"integer indices\" [ 0 1 2  0 2 3 ]\nAttributeEnd\n"
+        "AttributeBegin\nAreaLightSource \"diffuse\" \"rgb L\" [ 3 2 1 ]\n"
+        "Shape \"trianglemesh\" \"point3 P\" [ 1 1.5 0.5  1.5 1.5 0.5  1.5 1.5 1 ]"
+        " \"integer indices\" [ 0 2 1 ] \"float alpha\" [ 0 ]\nAttributeEnd\n"
         "AttributeBegin\nMaterial \"diffuse\" \"rgb reflectance\" [ 0 0 0 ]\n"
         "Shape \"trianglemesh\" \"point3 P\" [ -1.8 0 -1  -1.8 0 1  -1.8 1.5 1  -1.8 1.5 -1 ]"
         " \"integer indices\" [ 0 1 2  0 2 3 ]\nAttributeEnd\n"
