@@ -48,6 +48,10 @@ std::unique_ptr<Scene> example(const std::string &rel, uint32_t no_specialize = 
     return load_scene(std::string(TESSERA_SOURCE_DIR) + "/examples/" + rel, ov);
 }
 
+/// Equal up to a last-bit difference in a hit (relative 1e-5): what a sample traced through
+/// Embree's packet kernels may differ by from one traced through its single-ray kernel.
+bool near_equal(float a, float e) { return a == e || std::abs(a - e) <= 1e-5f * (1.f + std::abs(e)); }
+
 /// Bit-identical float images (NaN never expected).
 bool identical(const std::vector<float> &a, const std::vector<float> &b) {
     if (a.size() != b.size()) return false;
@@ -237,12 +241,9 @@ TEST_CASE("the path tracer's camera-ray packets give every sample its own value"
                 CAPTURE(batch[i].index);
                 // Embree's packet and single-ray kernels may round a hit differently on
                 // another CPU; a sample from the wrong lane or sequence differs by far more.
-                auto close = [](float a, float e) {
-                    return a == e || std::abs(a - e) <= 1e-5f * (1.f + std::abs(e));
-                };
-                for (int c = 0; c < 3; ++c) CHECK(close(b.radiance[c], one.radiance[c]));
+                for (int c = 0; c < 3; ++c) CHECK(near_equal(b.radiance[c], one.radiance[c]));
                 CHECK(b.rays == one.rays);
-                CHECK(close(b.depth, one.depth));
+                CHECK(near_equal(b.depth, one.depth));
                 ++compared;
                 lit += one.radiance.max_value() > 0.f;
             }
@@ -327,15 +328,12 @@ TEST_CASE("the packet kernel gives every sample the scalar path's value") {
                 CAPTURE(batch[i].index);
                 // As above: Embree's packet and single-ray kernels may round a hit differently
                 // on another CPU; a lane mix-up or a wrong dimension differs by far more.
-                auto close = [](float a, float e) {
-                    return a == e || std::abs(a - e) <= 1e-5f * (1.f + std::abs(e));
-                };
                 for (int c = 0; c < 3; ++c) {
-                    CHECK(close(b.radiance[c], one.radiance[c]));
-                    CHECK(close(b.albedo[c], one.albedo[c]));
-                    CHECK(close(b.normal[c], one.normal[c]));
+                    CHECK(near_equal(b.radiance[c], one.radiance[c]));
+                    CHECK(near_equal(b.albedo[c], one.albedo[c]));
+                    CHECK(near_equal(b.normal[c], one.normal[c]));
                 }
-                CHECK(close(b.depth, one.depth));
+                CHECK(near_equal(b.depth, one.depth));
                 CHECK(b.rays == one.rays);
                 CHECK(b.shadow_rays_avoided == one.shadow_rays_avoided);
                 ++compared;
@@ -364,15 +362,15 @@ TEST_CASE("the packet kernel renders the scalar path's image") {
     CHECK(packet.stats.samples == scalar.stats.samples);
     CHECK(packet.stats.samples == 24u * 24u * 48u);
     REQUIRE(packet.rgb.size() == scalar.rgb.size());
-    size_t close = 0;
+    size_t n_close = 0;
     double sum_p = 0, sum_s = 0;
     for (size_t i = 0; i < packet.rgb.size(); ++i) {
         const float a = packet.rgb[i], e = scalar.rgb[i];
-        close += a == e || std::abs(a - e) <= 1e-5f * (1.f + std::abs(e));
+        n_close += near_equal(a, e);
         sum_p += a;
         sum_s += e;
     }
-    CHECK(close >= packet.rgb.size() * 99 / 100);
+    CHECK(n_close >= packet.rgb.size() * 99 / 100);
     CHECK(sum_s > 0);
     CHECK(std::abs(sum_p - sum_s) <= 1e-4 * sum_s);
     // Rays and avoided shadow rays: the same paths (a hit rounded differently could change
