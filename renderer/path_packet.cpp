@@ -17,6 +17,7 @@
 #include <embree3/rtcore.h>
 #include <immintrin.h>
 
+#include <algorithm>
 #include <array>
 #include <bit>
 #include <cmath>
@@ -353,6 +354,12 @@ void PathIntegrator::trace_packet(std::span<const CameraSample> samples,
     alignas(32) int valid[kLanes];
     const RTCScene rtc = sc.geometry->rtc_scene();
     const uint32_t nee_dims = use_nee ? 3u : 0u;
+    std::memset(&rh, 0, sizeof(rh));
+    std::memset(&sr, 0, sizeof(sr));
+    for (int i = 0; i < kLanes; ++i) {
+        rh.ray.mask[i] = sr.mask[i] = 0xFFFFFFFFu;
+        rh.ray.id[i] = sr.id[i] = unsigned(i);
+    }
 
     while (true) {
         int n_live = 0;
@@ -368,20 +375,19 @@ void PathIntegrator::trace_packet(std::span<const CameraSample> samples,
         for (int i = 0; i < kLanes; ++i)
             bounce[size_t(i)] = false;
         std::array<bool, kLanes> pending = live;
-        while (pending[0] | pending[1] | pending[2] | pending[3] | pending[4] | pending[5] |
-               pending[6] | pending[7]) {
-        std::memset(&rh, 0, sizeof(rh));
-        for (int i = 0; i < kLanes; ++i) {
+        while (std::any_of(pending.begin(), pending.end(), [](bool b) { return b; })) {
+        // Whole registers in: the packet's fields Embree does not write (tnear, time, mask,
+        // id, flags) were set once before the loop.
+        for (int i = 0; i < kLanes; ++i)
             valid[i] = pending[size_t(i)] ? -1 : 0;
-            rh.ray.org_x[i] = o.x[i];
-            rh.ray.org_y[i] = o.y[i];
-            rh.ray.org_z[i] = o.z[i];
-            rh.ray.dir_x[i] = d.x[i];
-            rh.ray.dir_y[i] = d.y[i];
-            rh.ray.dir_z[i] = d.z[i];
+        std::memcpy(rh.ray.org_x, &o.x, sizeof(vf));
+        std::memcpy(rh.ray.org_y, &o.y, sizeof(vf));
+        std::memcpy(rh.ray.org_z, &o.z, sizeof(vf));
+        std::memcpy(rh.ray.dir_x, &d.x, sizeof(vf));
+        std::memcpy(rh.ray.dir_y, &d.y, sizeof(vf));
+        std::memcpy(rh.ray.dir_z, &d.z, sizeof(vf));
+        for (int i = 0; i < kLanes; ++i) {
             rh.ray.tfar[i] = kInfinity;
-            rh.ray.mask[i] = 0xFFFFFFFFu;
-            rh.ray.id[i] = unsigned(i);
             rh.hit.geomID[i] = RTC_INVALID_GEOMETRY_ID;
             rh.hit.instID[0][i] = RTC_INVALID_GEOMETRY_ID;
         }
@@ -676,7 +682,6 @@ void PathIntegrator::trace_packet(std::span<const CameraSample> samples,
 
         // Shadow rays as one packet.
         int n_shadow = 0;
-        std::memset(&sr, 0, sizeof(sr));
         for (int i = 0; i < kLanes; ++i) {
             valid[i] = 0;
             // A light was chosen but no shadow ray traced (trace_impl's count).
@@ -694,8 +699,6 @@ void PathIntegrator::trace_packet(std::span<const CameraSample> samples,
             sr.dir_y[i] = s_d.y[i];
             sr.dir_z[i] = s_d.z[i];
             sr.tfar[i] = s_tmax[i];
-            sr.mask[i] = 0xFFFFFFFFu;
-            sr.id[i] = unsigned(i);
         }
         if (n_shadow > 0) {
             RTCIntersectContext ctx;
