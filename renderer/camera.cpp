@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <cstring>
 
 #include "renderer/lens_system.h"
 #include "sampling/distribution.h"
@@ -10,8 +11,7 @@
 namespace tessera {
 
 namespace {
-constexpr int kFilterTableSize = 256;
-constexpr int kGuideSize = 256;
+constexpr int kFilterTableSize = PixelFilter::kTableSize;
 
 float gaussian_1d(float x, float sigma) {
     return std::exp(-x * x / (2 * sigma * sigma)) / std::sqrt(2 * kPi * sigma * sigma);
@@ -34,12 +34,12 @@ PixelFilter::PixelFilter(Kind kind, Vec2f radius, float sigma)
         }
         float total = cdf.back();
         for (float &c : cdf) c = total > 0 ? c / total : 0.f;
-        std::vector<uint16_t> &guide = guide_[axis];
+        std::vector<int32_t> &guide = guide_[axis];
         guide.resize(kGuideSize);
         for (int k = 0; k < kGuideSize; ++k) {
             float u = float(k) / kGuideSize;
             auto it = std::upper_bound(cdf.begin(), cdf.end(), u);
-            guide[size_t(k)] = uint16_t(std::max(0, int(it - cdf.begin()) - 1));
+            guide[size_t(k)] = std::max(0, int(it - cdf.begin()) - 1);
         }
     }
 }
@@ -193,6 +193,14 @@ void PerspectiveCamera::set_world_from_camera(const Transform &world_from_camera
             world_from_camera_f_[r][c] = float(wc.m[r][c]);
     position_ = world_from_camera_.point({0, 0, 0});
     forward_ = normalize(world_from_camera_.vector({0, 0, 1}));
+}
+
+std::optional<PerspectiveCamera::Pinhole> PerspectiveCamera::pinhole() const {
+    if (lens_ || lens_radius_ > 0 || orthographic_ || spherical_ != SphericalMapping::None)
+        return std::nullopt;
+    Pinhole ph{p0_camera_, dx_camera_, dy_camera_, {}};
+    std::memcpy(ph.world_from_camera, world_from_camera_f_, sizeof(world_from_camera_f_));
+    return ph;
 }
 
 Vec3f PerspectiveCamera::camera_point_world(Vec3f p) const {

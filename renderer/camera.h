@@ -6,6 +6,8 @@
 #pragma once
 
 #include <memory>
+#include <optional>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -31,6 +33,13 @@ class PixelFilter {
     Vec2f radius() const { return radius_; }
     std::string describe() const;
 
+    /// Gaussian: entries of the tabulated CDF per axis (kTableSize + 1 values) and of its guide
+    /// table, for code that inverts the CDF several samples at a time (renderer/path_packet.cpp);
+    /// empty for the other kinds.
+    static constexpr int kTableSize = 256, kGuideSize = 256;
+    std::span<const float> cdf(int axis) const { return cdf_[axis]; }
+    std::span<const int32_t> guide(int axis) const { return guide_[axis]; }
+
   private:
     float sample_1d(float u, int axis) const;
     Kind kind_ = Kind::Box;
@@ -41,7 +50,7 @@ class PixelFilter {
     // Guide table per axis: guide_[a][k] is the largest i with cdf_[a][i] <= k / kGuideSize, so
     // the CDF inversion starts next to its answer instead of binary-searching 257 entries
     // (a dozen mispredicted branches per axis and sample).
-    std::vector<uint16_t> guide_[2];
+    std::vector<int32_t> guide_[2];
 };
 
 /// Camera ray with the differentials of its origin and direction for one pixel step in x and y.
@@ -95,6 +104,16 @@ class PerspectiveCamera {
     Vec3f forward() const { return forward_; }
     bool orthographic() const { return orthographic_; }
     SphericalMapping spherical() const { return spherical_; }
+    /// What generate_ray computes for a plain pinhole (no lens radius, not orthographic or
+    /// spherical, no lens system): the ray starts at the camera position, rows 0-2, column 3 of
+    /// `world_from_camera`, and points along normalize(M (p0 + x dx + y dy)) for raster point
+    /// (x, y), M the 3x3 part of those rows. For code that generates several rays at a time
+    /// with the same operations (renderer/path_packet.cpp). std::nullopt for other cameras.
+    struct Pinhole {
+        Vec3f p0, dx, dy;
+        float world_from_camera[3][4];
+    };
+    std::optional<Pinhole> pinhole() const;
     /// Approximate position differentials at point p with normal n, for texture filtering
     /// (pbrt-v4 CameraBase::Approximate_dp_dxy), used after the first bounce.
     void approximate_dp_dxy(Vec3f p, Vec3f n, int spp, Vec3f *dpdx, Vec3f *dpdy) const;

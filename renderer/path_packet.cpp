@@ -45,6 +45,9 @@ typedef uint32_t vu __attribute__((vector_size(32)));
 inline vf splat(float a) {
     return vf{} + a;
 }
+inline vu splat_u(uint32_t a) {
+    return vu{} + a;
+}
 /// Lane-wise sqrt: one vsqrtps with AVX (the default build's x86-64-v3), else lane by lane.
 inline vf vsqrt(vf a) {
 #ifdef __AVX__
@@ -266,6 +269,71 @@ inline V3 cosine_hemisphere(vf ux, vf uy) {
     return {dx, dy, dz};
 }
 
+/// Whether any lane of a mask is set.
+inline bool any(vi m) {
+#ifdef __AVX__
+    return _mm256_movemask_ps((__m256)m) != 0;
+#else
+    for (int i = 0; i < kLanes; ++i)
+        if (m[i]) return true;
+    return false;
+#endif
+}
+
+/// t[idx], lane by lane (AVX2 gathers where available).
+inline vf gather(const float *t, vi idx) {
+#ifdef __AVX2__
+    return (vf)_mm256_i32gather_ps(t, (__m256i)idx, 4);
+#else
+    vf r{};
+    for (int i = 0; i < kLanes; ++i) r[i] = t[idx[i]];
+    return r;
+#endif
+}
+inline vi gather(const int32_t *t, vi idx) {
+#ifdef __AVX2__
+    return (vi)_mm256_i32gather_epi32(reinterpret_cast<const int *>(t), (__m256i)idx, 4);
+#else
+    vi r{};
+    for (int i = 0; i < kLanes; ++i) r[i] = t[idx[i]];
+    return r;
+#endif
+}
+
+/// PixelFilter::sample_1d, lane by lane: the box, the tent (sampling::sample_tent) and the
+/// Gaussian's guided inversion of its tabulated CDF, with the same operations.
+vf filter_sample_1d(const PixelFilter &f, int axis, vf u) {
+    const float r = f.radius()[axis];
+    switch (f.kind()) {
+    case PixelFilter::Kind::Box:
+        return (2.f * u - 1.f) * r;
+    case PixelFilter::Kind::Triangle: {
+        const vf lo = -r + r * vsqrt(u * 2.f);
+        const vf hi = r - r * vsqrt(1.f - (u - 0.5f) * 2.f);
+        return u < 0.5f ? lo : hi;
+    }
+    case PixelFilter::Kind::Gaussian: {
+        constexpr int kN = PixelFilter::kTableSize, kG = PixelFilter::kGuideSize;
+        const float *cdf = f.cdf(axis).data();
+        const vi k = __builtin_convertvector(u * float(kG), vi);
+        vi i = gather(f.guide(axis).data(), k < kG - 1 ? k : vi{} + (kG - 1));
+        // Walk up while cdf[i + 1] <= u (i + 1 <= kN), as the scalar loop does per lane.
+        while (true) {
+            const vi in = i + 1 <= kN;
+            const vi up = in & (gather(cdf, in ? i + 1 : i) <= u);
+            if (!any(up))
+                break;
+            i -= up;  // up is -1 where a lane steps
+        }
+        i = i < 0 ? vi{} : (i > kN - 1 ? vi{} + (kN - 1) : i);
+        const vf c0 = gather(cdf, i), c1 = gather(cdf, i + 1);
+        const vf t = c1 > c0 ? (u - c0) / (c1 - c0) : splat(0.5f);
+        return -r + (__builtin_convertvector(i, vf) + t) * (2 * r / kN);
+    }
+    }
+    return vf{};
+}
+
 vi mask_of(const std::array<bool, kLanes> &b) {
     vi m{};
     for (int i = 0; i < kLanes; ++i)
@@ -295,16 +363,77 @@ void PathIntegrator::trace_packet(std::span<const CameraSample> samples,
     V3 o, d, L, beta, prev_p, prev_n;
     vf p_bsdf{};
     int next = 0;
+
+    // Camera rays of the batch, 8 samples at a time: lane-parallel for a pinhole camera (the
+    // operations of camera_ray, PixelFilter::sample and PerspectiveCamera::generate_ray, in the
+    // same order), else camera_ray per sample. Also each sample's sampler state after them.
+    struct {
+        int base = 0, count = 0;
+        V3 o, d;
+        vf weight{};
+        vu pixel_hash{}, index_rev{}, dim{};
+    } cam;
+    const std::optional<PerspectiveCamera::Pinhole> pinhole = sc.camera->pinhole();
+    uint32_t pinhole_dim = 0;
+    if (pinhole) {
+        sampling::SobolSampler sampler(seed_);
+        sampler.start_pixel_sample(0, 0, 0);
+        sampler.skip(2);  // camera_ray: a pinhole skips the lens dimensions
+        pinhole_dim = sampler.dimension();
+    }
+    auto camera_rays = [&](int base) {
+        cam.base = base;
+        cam.count = std::min(kLanes, n - base);
+        if (!pinhole) {
+            for (int j = 0; j < cam.count; ++j) {
+                const CameraSample &cs = samples[size_t(base + j)];
+                sampling::SobolSampler sampler(seed_);
+                const CameraRay cray = camera_ray(cs, sampler);
+                cam.o.set(j, cray.ray.o);
+                cam.d.set(j, cray.ray.d);
+                cam.weight[j] = cray.weight;
+                cam.pixel_hash[j] = sampling::hash_pixel(seed_, cs.px, cs.py);
+                cam.index_rev[j] = sampling::reverse_bits_32(cs.index);
+                cam.dim[j] = sampler.dimension();
+            }
+            return;
+        }
+        vu px{}, py{}, index{};
+        vf fx{}, fy{};
+        for (int j = 0; j < kLanes; ++j) {
+            // Lanes past the end repeat the last sample (their results are never read).
+            const CameraSample &cs = samples[size_t(base + std::min(j, cam.count - 1))];
+            px[j] = cs.px, py[j] = cs.py, index[j] = cs.index;
+            fx[j] = cs.fx, fy[j] = cs.fy;
+        }
+        const vf rx = (__builtin_convertvector(px, vf) + 0.5f) + filter_sample_1d(sc.filter, 0, fx);
+        const vf ry = (__builtin_convertvector(py, vf) + 0.5f) + filter_sample_1d(sc.filter, 1, fy);
+        const PerspectiveCamera::Pinhole &ph = *pinhole;
+        const V3 pc{(ph.p0.x + ph.dx.x * rx) + ph.dy.x * ry, (ph.p0.y + ph.dx.y * rx) + ph.dy.y * ry,
+                    (ph.p0.z + ph.dx.z * rx) + ph.dy.z * ry};
+        const auto &m = ph.world_from_camera;
+        const V3 dw{m[0][0] * pc.x + m[0][1] * pc.y + m[0][2] * pc.z,
+                    m[1][0] * pc.x + m[1][1] * pc.y + m[1][2] * pc.z,
+                    m[2][0] * pc.x + m[2][1] * pc.y + m[2][2] * pc.z};
+        cam.d = div(dw, vsqrt(dot(dw, dw)));
+        cam.o = {splat(m[0][3]), splat(m[1][3]), splat(m[2][3])};
+        cam.weight = splat(1.f);
+        // sampling::hash_pixel
+        const vu h = mix_bits(splat_u(sampling::mix_bits_32(seed_ ^ 0x9e3779b9u)) ^ px);
+        cam.pixel_hash = mix_bits((h + 0x85ebca6bu) ^ py);
+        cam.index_rev = reverse_bits(index);
+        cam.dim = splat_u(pinhole_dim);
+    };
     // Starts the next sample with a camera ray in lane i (or leaves the lane empty).
     auto start_lane = [&](int i) {
         slot[size_t(i)] = -1;
         live[size_t(i)] = false;
         while (next < n) {
             const int k = next++;
-            const CameraSample &cs = samples[size_t(k)];
-            sampling::SobolSampler sampler(seed_);
-            CameraRay cray = camera_ray(cs, sampler);
-            if (cray.weight == 0.f) {
+            if (k >= cam.base + cam.count)
+                camera_rays(k);
+            const int j = k - cam.base;
+            if (cam.weight[j] == 0.f) {
                 // Blocked by the lens system: zero radiance, nothing traced.
                 out[size_t(k)] = to_sample(PathResult{});
                 continue;
@@ -312,17 +441,17 @@ void PathIntegrator::trace_packet(std::span<const CameraSample> samples,
             slot[size_t(i)] = k;
             live[size_t(i)] = true;
             res[size_t(i)] = PathResult{};
-            weight[size_t(i)] = cray.weight;
+            weight[size_t(i)] = cam.weight[j];
             skips[size_t(i)] = 0;
             depth[i] = 0;
-            o.set(i, cray.ray.o);
-            d.set(i, cray.ray.d);
+            o.set(i, cam.o.get(j));
+            d.set(i, cam.d.get(j));
             L.set(i, Rgb(0.f));
             beta.set(i, Rgb(1.f));
             p_bsdf[i] = 1.f;
-            pixel_hash[i] = sampling::hash_pixel(seed_, cs.px, cs.py);
-            index_rev[i] = sampling::reverse_bits_32(cs.index);
-            dim[i] = sampler.dimension();
+            pixel_hash[i] = cam.pixel_hash[j];
+            index_rev[i] = cam.index_rev[j];
+            dim[i] = cam.dim[j];
             return;
         }
     };
