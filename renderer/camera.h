@@ -36,7 +36,7 @@ class PixelFilter {
     /// Gaussian: entries of the tabulated CDF per axis (kTableSize + 1 values) and of its guide
     /// table, for code that inverts the CDF several samples at a time (renderer/path_packet.cpp);
     /// empty for the other kinds.
-    static constexpr int kTableSize = 256, kGuideSize = 256;
+    static constexpr int kTableSize = 256, kGuideSize = 1024;
     std::span<const float> cdf(int axis) const { return cdf_[axis]; }
     std::span<const int32_t> guide(int axis) const { return guide_[axis]; }
 

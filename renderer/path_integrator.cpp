@@ -103,18 +103,25 @@ CameraRay PathIntegrator::camera_ray(const CameraSample &cs,
     return scene_.camera->generate_ray(p_raster, u_lens, differentials_);
 }
 
-Sample PathIntegrator::to_sample(const PathResult &r) const {
-    Sample s;
+void PathIntegrator::to_sample(const PathResult &r, Sample &s) const {
     // pbrt-v4 RGBFilm: the sensor scale, the maxcomponentvalue clamp, then the white balance.
-    s.radiance = r.L * scene_.settings.image_scale;
-    float m = s.radiance.max_value();
-    if (m > scene_.settings.max_component) s.radiance *= scene_.settings.max_component / m;
-    s.radiance = scene_.settings.balance(s.radiance);
+    Rgb L = r.L * scene_.settings.image_scale;
+    float m = L.max_value();
+    if (m > scene_.settings.max_component)
+        L *= scene_.settings.max_component / m;
+    s.radiance = scene_.settings.balance(L);
     s.albedo = r.albedo;
     s.normal = r.normal;
     s.depth = r.depth;
     s.rays = r.rays;
     s.shadow_rays_avoided = r.shadow_rays_avoided;
+    s.shadow_rays = 0;
+    s.first_hit.reset();
+}
+
+Sample PathIntegrator::to_sample(const PathResult &r) const {
+    Sample s;
+    to_sample(r, s);
     return s;
 }
 

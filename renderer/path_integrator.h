@@ -60,6 +60,8 @@ class PathIntegrator final : public SampleSource {
     /// The camera ray of `cs`; leaves `sampler` at the path's first dimension.
     CameraRay camera_ray(const CameraSample &cs, sampling::SobolSampler &sampler) const;
     Sample to_sample(const PathResult &r) const;
+    /// to_sample into an existing Sample (every field written), without a temporary.
+    void to_sample(const PathResult &r, Sample &s) const;
     /// `first`, when given, is the camera ray's hit already traced (evaluate_batch).
     PathResult trace(const CameraRay &cray, sampling::SobolSampler &sampler,
                      std::optional<SurfaceInteraction> *first = nullptr) const;

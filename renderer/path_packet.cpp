@@ -459,7 +459,7 @@ void PathIntegrator::trace_packet(std::span<const CameraSample> samples,
     auto finish_lane = [&](int i) {
         PathResult &r = res[size_t(i)];
         r.L = L.rgb(i) * weight[size_t(i)];
-        out[size_t(slot[size_t(i)])] = to_sample(r);
+        to_sample(r, out[size_t(slot[size_t(i)])]);
         start_lane(i);
     };
     for (int i = 0; i < kLanes; ++i)
