@@ -258,9 +258,10 @@ struct AdaptiveScheduler::RenderContext {
     }
 };
 
-/// Most samples of one pixel per SampleSource::evaluate_batch call. The path tracer's packet
-/// kernel keeps 8 paths in flight and refills a lane from the batch when its path ends, so a
-/// batch of many samples keeps its lanes full (64 against 8: Cornell box +4% samples/s).
+/// Most samples per SampleSource::evaluate_batch call (of one pixel or of consecutive pixels of
+/// a tile). The path tracer's packet kernel keeps 8 paths in flight and refills a lane from the
+/// batch when its path ends, so a batch of many samples keeps its lanes full (64 against 8:
+/// Cornell box +4% samples/s).
 constexpr uint32_t kSampleBatch = 64;
 
 struct AdaptiveScheduler::WorkerState {
@@ -271,7 +272,7 @@ struct AdaptiveScheduler::WorkerState {
     std::vector<sampling::PixelBounds> rects;
     std::array<uint8_t, kTilePixels> active{};
     std::array<uint32_t, kTilePixels> before{}, after{};
-    // One pixel's samples on their way through SampleSource::evaluate_batch.
+    // Camera samples on their way through SampleSource::evaluate_batch.
     std::array<CameraSample, kSampleBatch> batch_cs{};
     std::array<Sample, kSampleBatch> batch_out{};
 
@@ -600,6 +601,22 @@ void AdaptiveScheduler::process_tile(size_t t, uint32_t pass, RenderContext &ctx
 
     bool any_active = false, any_new_error = false;
     uint64_t samples = 0, rays = 0, shadow_avoided = 0;
+    uint32_t batched = 0;  // camera samples waiting in ws.batch_cs
+    auto evaluate_batch = [&] {
+        if (batched == 0)
+            return;
+        source_.evaluate_batch(std::span<const CameraSample>(ws.batch_cs.data(), batched),
+                               std::span<Sample>(ws.batch_out.data(), batched));
+        for (uint32_t k = 0; k < batched; ++k) {
+            const Sample &s = ws.batch_out[k];
+            const CameraSample &cs = ws.batch_cs[k];
+            rays += s.rays;
+            shadow_avoided += s.shadow_rays_avoided;
+            film_.add_sample(cs.px, cs.py, cs.index, s);
+        }
+        samples += batched;
+        batched = 0;
+    };
     for (uint32_t i = 0; i < n; ++i) {
         const uint32_t px = tile.x0 + i % tw, py = tile.y0 + i / tw;
         const uint32_t first = film_.sample_count(px, py);
@@ -624,31 +641,31 @@ void AdaptiveScheduler::process_tile(size_t t, uint32_t pass, RenderContext &ctx
                 pixel_target = std::min(pixel_target, std::max(first, pixel_cap));
         }
         // The film's count is the pixel's next index: each pixel continues its own sequence.
-        // A pixel's samples go to the source in batches (the path tracer traces their camera
-        // rays as one packet) and reach the film in index order.
+        // The samples of the tile's pixels go to the source in batches of up to kSampleBatch
+        // (the path tracer traces them 8 at a time and refills its lanes from the batch, so
+        // the batch may run across pixels) and reach the film in pixel and index order.
         for (uint32_t index = first; index < pixel_target;) {
-            const uint32_t m = std::min<uint32_t>(kSampleBatch, pixel_target - index);
+            const uint32_t m = std::min<uint32_t>(kSampleBatch - batched, pixel_target - index);
             for (uint32_t k = 0; k < m; ++k)
-                ws.batch_cs[k] = camera_sample(options_.seed, px, py, index + k);
-            source_.evaluate_batch(std::span<const CameraSample>(ws.batch_cs.data(), m),
-                                   std::span<Sample>(ws.batch_out.data(), m));
-            for (uint32_t k = 0; k < m; ++k) {
-                const Sample &s = ws.batch_out[k];
-                rays += s.rays;
-                shadow_avoided += s.shadow_rays_avoided;
-                film_.add_sample(px, py, index + k, s);
-            }
-            samples += m;
+                ws.batch_cs[batched + k] = camera_sample(options_.seed, px, py, index + k);
+            batched += m;
             index += m;
+            if (batched == kSampleBatch)
+                evaluate_batch();
         }
         ws.after[i] = std::max(first, pixel_target);
-        if (adaptive_ && pixel_target > first) {
+    }
+    evaluate_batch();
+    if (adaptive_)
+        for (uint32_t i = 0; i < n; ++i) {
+            if (ws.after[i] == ws.before[i])
+                continue;
+            const uint32_t px = tile.x0 + i % tw, py = tile.y0 + i / tw;
             error_snapshot_[size_t(py) * film_.width() + px].store(
                 sampling::pixel_error(film_.pixel_stats(px, py), options_.min_samples_for_error),
                 std::memory_order_relaxed);
             any_new_error = true;
         }
-    }
     if (any_new_error)
         publish_tile_error(t);
     if (any_active)
