@@ -7,9 +7,11 @@
 // over the 8 lanes on structure-of-arrays data: the hit point, its error bounds, normals and
 // shading frame (Geometry's fill_triangle and Frame::from_xz), the sampler's values, the BSDF
 // value and density, the MIS weight, the ray offsets, cosine-weighted sampling, Russian
-// roulette. GCC vectorises these loops (8 floats per AVX2 instruction). What is rare or
-// polymorphic stays a per-lane call: light selection and light sampling (any light type),
-// emission found by a hit or by an escaped ray.
+// roulette. GCC vectorises these loops (8 floats per AVX2 instruction). A pinhole camera's
+// rays, the pixel filter's importance sampling included, are generated 8 at a time too, and a
+// ray that misses the scene's bounds escapes without an Embree call. What is rare or
+// polymorphic stays a per-lane call: light selection and light sampling (other than triangle
+// lights), emission found by a hit or by an escaped ray, other cameras' rays.
 //
 // Every lane performs the operations of PathIntegrator::trace_impl<true> in the same order on
 // the same floats (-ffp-contract=off: no fused multiply-adds), so a sample's value is bit for
