@@ -60,41 +60,21 @@ bool identical(const std::vector<float> &a, const std::vector<float> &b) {
     return true;
 }
 
-/// How evaluate_batch (the packet kernel) and evaluate (trace_impl) compared, sample by sample.
+/// How evaluate_batch and evaluate (trace_impl) compared, sample by sample.
 struct PacketComparison {
     size_t compared = 0, lit = 0, bounced = 0, exact = 0;
 };
 
-/// Batches of one pixel's 37 samples (lanes refilled as paths end), rows of different pixels,
-/// and batches of 2 and 3 through evaluate_batch, each sample checked against evaluate():
-/// values, AOVs and ray counts.
-PacketComparison compare_packet_to_scalar(const Scene &scene, DirectStrategy strategy) {
-    PathIntegrator packet(scene, 11, scene.settings.max_depth, strategy);
-    REQUIRE((packet.specializations() & kSpecPacket) != 0);
-    const uint32_t w = packet.width(), h = packet.height();
-    std::vector<std::vector<CameraSample>> batches;
-    for (uint32_t y = 0; y < h; y += 3)
-        for (uint32_t x = 0; x < w; x += 3) {
-            std::vector<CameraSample> one_pixel;
-            for (uint32_t i = 0; i < 37; ++i)
-                one_pixel.push_back(sched::camera_sample(5, x, y, i));
-            batches.push_back(one_pixel);
-        }
-    for (uint32_t y = 0; y < h; ++y) {
-        std::vector<CameraSample> row;
-        for (uint32_t x = 0; x < w; ++x)
-            row.push_back(sched::camera_sample(5, x, y, x % 5));
-        batches.push_back(row);
-    }
-    batches.push_back({sched::camera_sample(5, 3, 4, 0), sched::camera_sample(5, 3, 4, 1)});
-    batches.push_back({sched::camera_sample(5, 9, 2, 7), sched::camera_sample(5, 1, 1, 2),
-                       sched::camera_sample(5, 15, 11, 3)});
+/// Each batch through evaluate_batch, each sample checked against evaluate(): values, AOVs and
+/// ray counts.
+PacketComparison compare_batches(const PathIntegrator &integrator,
+                                 const std::vector<std::vector<CameraSample>> &batches) {
     PacketComparison c;
     for (const auto &batch : batches) {
         std::vector<Sample> out(batch.size());
-        packet.evaluate_batch(batch, out);
+        integrator.evaluate_batch(batch, out);
         for (size_t i = 0; i < batch.size(); ++i) {
-            const Sample one = packet.evaluate(batch[i]);
+            const Sample one = integrator.evaluate(batch[i]);
             const Sample &b = out[i];
             CAPTURE(batch[i].px);
             CAPTURE(batch[i].py);
@@ -117,6 +97,32 @@ PacketComparison compare_packet_to_scalar(const Scene &scene, DirectStrategy str
         }
     }
     return c;
+}
+
+/// The packet kernel against the scalar path (compare_batches): batches of one pixel's 37
+/// samples (lanes refilled as paths end), rows of different pixels, and batches of 2 and 3.
+PacketComparison compare_packet_to_scalar(const Scene &scene, DirectStrategy strategy) {
+    PathIntegrator packet(scene, 11, scene.settings.max_depth, strategy);
+    REQUIRE((packet.specializations() & kSpecPacket) != 0);
+    const uint32_t w = packet.width(), h = packet.height();
+    std::vector<std::vector<CameraSample>> batches;
+    for (uint32_t y = 0; y < h; y += 3)
+        for (uint32_t x = 0; x < w; x += 3) {
+            std::vector<CameraSample> one_pixel;
+            for (uint32_t i = 0; i < 37; ++i)
+                one_pixel.push_back(sched::camera_sample(5, x, y, i));
+            batches.push_back(one_pixel);
+        }
+    for (uint32_t y = 0; y < h; ++y) {
+        std::vector<CameraSample> row;
+        for (uint32_t x = 0; x < w; ++x)
+            row.push_back(sched::camera_sample(5, x, y, x % 5));
+        batches.push_back(row);
+    }
+    batches.push_back({sched::camera_sample(5, 3, 4, 0), sched::camera_sample(5, 3, 4, 1)});
+    batches.push_back({sched::camera_sample(5, 9, 2, 7), sched::camera_sample(5, 1, 1, 2),
+                       sched::camera_sample(5, 15, 11, 3)});
+    return compare_batches(packet, batches);
 }
 
 }  // namespace
@@ -288,27 +294,9 @@ TEST_CASE("the path tracer's camera-ray packets give every sample its own value"
             batches.push_back(row);
         }
         batches.push_back({sched::camera_sample(3, w / 2, h / 2, 5)});
-        size_t compared = 0, lit = 0;
-        for (const auto &batch : batches) {
-            std::vector<Sample> out(batch.size());
-            integrator.evaluate_batch(batch, out);
-            for (size_t i = 0; i < batch.size(); ++i) {
-                const Sample one = integrator.evaluate(batch[i]);
-                const Sample &b = out[i];
-                CAPTURE(batch[i].px);
-                CAPTURE(batch[i].py);
-                CAPTURE(batch[i].index);
-                // Embree's packet and single-ray kernels may round a hit differently on
-                // another CPU; a sample from the wrong lane or sequence differs by far more.
-                for (int c = 0; c < 3; ++c) CHECK(near_equal(b.radiance[c], one.radiance[c]));
-                CHECK(b.rays == one.rays);
-                CHECK(near_equal(b.depth, one.depth));
-                ++compared;
-                lit += one.radiance.max_value() > 0.f;
-            }
-        }
-        CHECK(compared > 200);
-        CHECK(lit > compared / 4);  // the comparison is not between black samples
+        const PacketComparison c = compare_batches(integrator, batches);
+        CHECK(c.compared > 200);
+        CHECK(c.lit > c.compared / 4);  // the comparison is not between black samples
     }
 }
 
