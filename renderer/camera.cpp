@@ -18,20 +18,86 @@ float gaussian_1d(float x, float sigma) {
 }
 }  // namespace
 
+/// pbrt-v4 MitchellFilter::Mitchell1D on x in [-2, 2].
+float mitchell_1d(float x, float b, float c) {
+    x = std::abs(x);
+    if (x <= 1)
+        return ((12 - 9 * b - 6 * c) * x * x * x + (-18 + 12 * b + 6 * c) * x * x + (6 - 2 * b)) *
+               (1.f / 6.f);
+    if (x <= 2)
+        return ((-b - 6 * c) * x * x * x + (6 * b + 30 * c) * x * x + (-12 * b - 48 * c) * x +
+                (8 * b + 24 * c)) *
+               (1.f / 6.f);
+    return 0.f;
+}
+
+float sinc(float x) {
+    x = std::abs(x);
+    return x < 1e-5f ? 1.f : std::sin(kPi * x) / (kPi * x);
+}
+
 PixelFilter::PixelFilter(Kind kind, Vec2f radius, float sigma)
     : kind_(kind), radius_(radius), sigma_(sigma) {
-    if (kind_ != Kind::Gaussian) return;
-    // Tabulate the (separable) truncated gaussian of pbrt-v4 per axis:
-    // f(x) = max(0, g(x) - g(r)). Sampling inverts the piecewise-constant CDF.
+    if (kind_ == Kind::Gaussian) tabulate();
+}
+
+PixelFilter PixelFilter::mitchell(Vec2f radius, float b, float c) {
+    PixelFilter f;
+    f.kind_ = Kind::Mitchell;
+    f.radius_ = radius;
+    f.b_ = b;
+    f.c_ = c;
+    f.tabulate();
+    return f;
+}
+
+PixelFilter PixelFilter::lanczos(Vec2f radius, float tau) {
+    PixelFilter f;
+    f.kind_ = Kind::Lanczos;
+    f.radius_ = radius;
+    f.tau_ = tau;
+    f.tabulate();
+    return f;
+}
+
+float PixelFilter::evaluate_1d(float x, int axis) const {
+    const float r = radius_[axis];
+    if (std::abs(x) > r) return 0.f;
+    switch (kind_) {
+    case Kind::Box:
+        return 1.f;
+    case Kind::Triangle:
+        return std::max(0.f, r - std::abs(x));
+    case Kind::Gaussian:
+        return std::max(0.f, gaussian_1d(x, sigma_) - gaussian_1d(r, sigma_));
+    case Kind::Mitchell:
+        return mitchell_1d(2 * x / r, b_, c_);
+    case Kind::Lanczos:
+        return sinc(x) * sinc(x / tau_);
+    }
+    return 0.f;
+}
+
+void PixelFilter::tabulate() {
+    // Tabulate |f_1d| per axis at the cell centres; sampling inverts the piecewise-constant
+    // CDF. Signed filters keep each cell's sign and the normalisation int |f| / int f.
+    const bool is_signed = kind_ == Kind::Mitchell || kind_ == Kind::Lanczos;
+    weight_ = 1.f;
     for (int axis = 0; axis < 2; ++axis) {
         float r = radius_[axis];
         std::vector<float> &cdf = cdf_[axis];
         cdf.assign(kFilterTableSize + 1, 0.f);
+        if (is_signed) sign_[axis].assign(kFilterTableSize, 1);
+        double sum_abs = 0, sum = 0;
         for (int i = 0; i < kFilterTableSize; ++i) {
             float x = -r + (i + 0.5f) * (2 * r / kFilterTableSize);
-            float f = std::max(0.f, gaussian_1d(x, sigma_) - gaussian_1d(r, sigma_));
-            cdf[size_t(i) + 1] = cdf[size_t(i)] + f;
+            float f = evaluate_1d(x, axis);
+            if (is_signed) sign_[axis][size_t(i)] = f < 0 ? -1 : 1;
+            sum_abs += std::abs(f);
+            sum += f;
+            cdf[size_t(i) + 1] = cdf[size_t(i)] + std::abs(f);
         }
+        if (is_signed && sum > 0) weight_ *= float(sum_abs / sum);
         float total = cdf.back();
         for (float &c : cdf) c = total > 0 ? c / total : 0.f;
         std::vector<int32_t> &guide = guide_[axis];
@@ -44,14 +110,16 @@ PixelFilter::PixelFilter(Kind kind, Vec2f radius, float sigma)
     }
 }
 
-float PixelFilter::sample_1d(float u, int axis) const {
+float PixelFilter::sample_1d(float u, int axis, int *cell) const {
     float r = radius_[axis];
     switch (kind_) {
     case Kind::Box:
         return (2 * u - 1) * r;
     case Kind::Triangle:
         return sampling::sample_tent(u, r);
-    case Kind::Gaussian: {
+    case Kind::Gaussian:
+    case Kind::Mitchell:
+    case Kind::Lanczos: {
         const std::vector<float> &cdf = cdf_[axis];
         // Largest i with cdf[i] <= u (what upper_bound - 1 gives), walking up from the guide
         // entry of u's bucket; cdf[0] = 0 <= u, so the guide entry never overshoots.
@@ -60,6 +128,7 @@ float PixelFilter::sample_1d(float u, int axis) const {
         while (i + 1 <= kFilterTableSize && cdf[size_t(i) + 1] <= u)
             ++i;
         i = std::clamp(i, 0, kFilterTableSize - 1);
+        if (cell) *cell = i;
         float c0 = cdf[size_t(i)], c1 = cdf[size_t(i) + 1];
         float t = c1 > c0 ? (u - c0) / (c1 - c0) : 0.5f;
         return -r + (i + t) * (2 * r / kFilterTableSize);
@@ -68,24 +137,24 @@ float PixelFilter::sample_1d(float u, int axis) const {
     return 0.f;
 }
 
-Vec2f PixelFilter::sample(Vec2f u) const { return {sample_1d(u.x, 0), sample_1d(u.y, 1)}; }
+Vec2f PixelFilter::sample(Vec2f u, float *weight) const {
+    if (!has_negative_lobes()) {
+        if (weight) *weight = 1.f;
+        return {sample_1d(u.x, 0), sample_1d(u.y, 1)};
+    }
+    int cx = 0, cy = 0;
+    Vec2f p{sample_1d(u.x, 0, &cx), sample_1d(u.y, 1, &cy)};
+    if (weight) *weight = float(sign_[0][size_t(cx)] * sign_[1][size_t(cy)]) * weight_;
+    return p;
+}
 
 float PixelFilter::evaluate(Vec2f p) const {
     if (std::abs(p.x) > radius_.x || std::abs(p.y) > radius_.y) return 0.f;
-    switch (kind_) {
-    case Kind::Box:
-        return 1.f;
-    case Kind::Triangle:
-        return std::max(0.f, radius_.x - std::abs(p.x)) * std::max(0.f, radius_.y - std::abs(p.y));
-    case Kind::Gaussian:
-        return std::max(0.f, gaussian_1d(p.x, sigma_) - gaussian_1d(radius_.x, sigma_)) *
-               std::max(0.f, gaussian_1d(p.y, sigma_) - gaussian_1d(radius_.y, sigma_));
-    }
-    return 0.f;
+    return evaluate_1d(p.x, 0) * evaluate_1d(p.y, 1);
 }
 
 std::string PixelFilter::describe() const {
-    const char *names[] = {"box", "triangle", "gaussian"};
+    const char *names[] = {"box", "triangle", "gaussian", "mitchell", "sinc"};
     char buf[128];
     std::snprintf(buf, sizeof(buf), "%s filter, radius (%g, %g)", names[int(kind_)], radius_.x,
                   radius_.y);

@@ -1,5 +1,6 @@
 // The perspective camera and the pixel reconstruction filter of pbrt-v4, with filter importance
-// sampling: each camera sample lands in exactly one pixel, with weight 1 (positive filters).
+// sampling: each camera sample lands in exactly one pixel, with weight 1 for the positive
+// filters and +-w for those with negative lobes (mitchell, sinc).
 //
 // Conventions (PBRT-NOTES.md): camera space looks down +z, +y up, +x toward the right of the
 // image; raster (0,0) is the top-left corner; `fov` spans the shorter image axis.
@@ -19,18 +20,34 @@ namespace tessera {
 class LensSystem;
 
 /// Pixel filter, sampled by importance: `sample(u)` returns an offset from the pixel centre in
-/// pixels, distributed proportionally to the filter (box, triangle, gaussian).
+/// pixels, distributed proportionally to |f| (pbrt-v4's box, triangle, gaussian, mitchell and
+/// sinc filters; all separable, f(x, y) = f_x(x) f_y(y)).
+///
+/// Filters with negative lobes (Mitchell-Netravali, Lanczos windowed sinc) are sampled from
+/// the tabulated |f_x| and |f_y| and give each sample the weight
+/// sign(f(x, y)) (int |f_x| int |f_y|) / (int f_x int f_y), so that the plain mean of weighted
+/// samples estimates the filtered image int f L / int f, as pbrt-v4's weighted sum
+/// sum w L / sum w does (pbrt-v4 FilterSampler; PBRT 4th ed., section 8.8.3).
 class PixelFilter {
   public:
-    enum class Kind { Box, Triangle, Gaussian };
+    enum class Kind { Box, Triangle, Gaussian, Mitchell, Lanczos };
     PixelFilter() = default;
+    /// Box, triangle or gaussian (`sigma`, pbrt-v4's default 0.5).
     PixelFilter(Kind kind, Vec2f radius, float sigma = 0.5f);
-    /// Offset in pixels from the pixel centre, density proportional to the filter.
-    Vec2f sample(Vec2f u) const;
+    /// pbrt-v4 "mitchell": Mitchell & Netravali 1988 with parameters B and C (default 1/3
+    /// each), f(x) = Mitchell1D(2 x / radius).
+    static PixelFilter mitchell(Vec2f radius, float b, float c);
+    /// pbrt-v4 "sinc": sinc(x) sinc(x / tau) on |x| <= radius (Lanczos; default tau 3).
+    static PixelFilter lanczos(Vec2f radius, float tau);
+    /// Offset in pixels from the pixel centre, density proportional to |f|; `weight` (when
+    /// given) receives the sample's weight (1 for the positive filters).
+    Vec2f sample(Vec2f u, float *weight = nullptr) const;
     /// Filter value f(x, y) (tests).
     float evaluate(Vec2f p) const;
     Kind kind() const { return kind_; }
     Vec2f radius() const { return radius_; }
+    /// True for the filters whose samples carry weights other than 1 (negative lobes).
+    bool has_negative_lobes() const { return !sign_[0].empty(); }
     std::string describe() const;
 
     /// Gaussian: entries of the tabulated CDF per axis (kTableSize + 1 values) and of its guide
@@ -41,12 +58,21 @@ class PixelFilter {
     std::span<const int32_t> guide(int axis) const { return guide_[axis]; }
 
   private:
-    float sample_1d(float u, int axis) const;
+    float sample_1d(float u, int axis, int *cell = nullptr) const;
+    /// The 1D factor of the filter along `axis` at offset x (pixels).
+    float evaluate_1d(float x, int axis) const;
+    /// Tabulates |f_1d| per axis into cdf_ and guide_ (and the signs for signed filters).
+    void tabulate();
     Kind kind_ = Kind::Box;
     Vec2f radius_{0.5f, 0.5f};
-    float sigma_ = 0.5f;
-    // Gaussian: tabulated 1D CDF per axis (the filter is separable).
+    float sigma_ = 0.5f;       ///< gaussian sigma
+    float b_ = 1.f / 3, c_ = 1.f / 3;  ///< mitchell B and C
+    float tau_ = 3.f;          ///< lanczos tau
+    float weight_ = 1.f;       ///< int |f| / int f over both axes (signed filters)
+    // Gaussian, mitchell, lanczos: tabulated 1D CDF of |f| per axis (the filter is separable).
     std::vector<float> cdf_[2];
+    // Signed filters: the sign of f in each table cell, per axis (empty otherwise).
+    std::vector<int8_t> sign_[2];
     // Guide table per axis: guide_[a][k] is the largest i with cdf_[a][i] <= k / kGuideSize, so
     // the CDF inversion starts next to its answer instead of binary-searching 257 entries
     // (a dozen mispredicted branches per axis and sample).

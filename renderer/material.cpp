@@ -646,6 +646,10 @@ int MaterialSet::build(const std::string &name, const std::map<std::string, Mate
         }
         m = std::make_unique<MixMaterial>(ma, mb, tex.float_param(ps, "amount", 0.5f));
     } else {
+        // pbrt-v4 stops on a material type it does not know (pbrt-v3's "plastic", "matte",
+        // "uber"... among them); its own types that Tessera lacks render as diffuse.
+        if (type != "measured" && type != "subsurface")
+            throw SceneError(d.loc, "unknown material type \"" + type + "\"");
         warn(d.loc, "material type \"" + type +
                         "\" is not supported; rendering it as diffuse (reflectance 0.5)");
         m = std::make_unique<DiffuseMaterial>(

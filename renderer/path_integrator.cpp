@@ -90,8 +90,10 @@ CameraRay PathIntegrator::camera_ray(const CameraSample &cs,
                                      sampling::SobolSampler &sampler) const {
     sampler.start_pixel_sample(cs.px, cs.py, cs.index);
     // Filter importance sampling: the film offset (fx, fy) in [0,1)^2 is warped through the
-    // pixel filter; the sample stays in pixel (px, py) with weight 1.
-    Vec2f offset = scene_.filter.sample({cs.fx, cs.fy});
+    // pixel filter; the sample stays in pixel (px, py) with weight 1 (+-w for a filter with
+    // negative lobes, carried by the camera ray's weight).
+    float filter_weight = 1.f;
+    Vec2f offset = scene_.filter.sample({cs.fx, cs.fy}, &filter_weight);
     Vec2f p_raster{float(cs.px) + 0.5f + offset.x, float(cs.py) + 0.5f + offset.y};
     // A pinhole ignores the lens sample: skip its dimensions rather than hash them.
     Vec2f u_lens{0.5f, 0.5f};
@@ -100,7 +102,9 @@ CameraRay PathIntegrator::camera_ray(const CameraSample &cs,
     else
         sampler.skip(2);
     // Only texture filtering reads the ray differentials.
-    return scene_.camera->generate_ray(p_raster, u_lens, differentials_);
+    CameraRay r = scene_.camera->generate_ray(p_raster, u_lens, differentials_);
+    r.weight *= filter_weight;
+    return r;
 }
 
 void PathIntegrator::to_sample(const PathResult &r, Sample &s) const {

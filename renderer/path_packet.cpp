@@ -314,7 +314,11 @@ vf filter_sample_1d(const PixelFilter &f, int axis, vf u) {
         const vf hi = r - r * vsqrt(1.f - (u - 0.5f) * 2.f);
         return u < 0.5f ? lo : hi;
     }
-    case PixelFilter::Kind::Gaussian: {
+    // The tabulated filters invert the same CDF (the signed ones' weights are not applied
+    // here: camera_rays takes the per-sample path for them).
+    case PixelFilter::Kind::Gaussian:
+    case PixelFilter::Kind::Mitchell:
+    case PixelFilter::Kind::Lanczos: {
         constexpr int kN = PixelFilter::kTableSize, kG = PixelFilter::kGuideSize;
         const float *cdf = f.cdf(axis).data();
         const vi k = __builtin_convertvector(u * float(kG), vi);
@@ -394,7 +398,10 @@ void PathIntegrator::trace_packet(std::span<const CameraSample> samples,
         vf weight{};
         vu pixel_hash{}, index_rev{}, dim{};
     } cam;
-    const std::optional<PerspectiveCamera::Pinhole> pinhole = sc.camera->pinhole();
+    // Lane-parallel camera rays for a pinhole and a positive filter (weight 1); a filter with
+    // negative lobes weighs each sample, which camera_ray does.
+    const std::optional<PerspectiveCamera::Pinhole> pinhole =
+        sc.filter.has_negative_lobes() ? std::nullopt : sc.camera->pinhole();
     uint32_t pinhole_dim = 0;
     if (pinhole) {
         sampling::SobolSampler sampler(seed_);

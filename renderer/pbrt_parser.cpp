@@ -6,6 +6,7 @@
 // stack pushed by AttributeBegin / TransformBegin / ObjectBegin. Conventions: pbrt_parser.h.
 #include "renderer/pbrt_parser.h"
 
+#include <algorithm>
 #include <charconv>
 #include <cfloat>
 #include <climits>
@@ -594,11 +595,16 @@ void Parser::parse(Tokenizer &tok, const std::string &dir, int depth) {
             Transform la = Transform::look_at(Vec3f(float(v[0]), float(v[1]), float(v[2])),
                                               Vec3f(float(v[3]), float(v[4]), float(v[5])),
                                               Vec3f(float(v[6]), float(v[7]), float(v[8])), &ok);
-            if (!ok)
-                warn(loc, "LookAt: the up vector is parallel to the viewing direction; "
-                          "the transform is ignored");
-            else
-                apply_transform(la);
+            // pbrt-v4 stops on a LookAt it cannot turn into a frame; so does Tessera (a
+            // silently ignored camera transform renders a black or wrong image).
+            if (!ok) {
+                const bool same = v[0] == v[3] && v[1] == v[4] && v[2] == v[5];
+                throw SceneError(loc, same ? "LookAt: the eye and the look-at point are the "
+                                             "same; there is no viewing direction"
+                                           : "LookAt: the up vector is zero or parallel to the "
+                                             "viewing direction");
+            }
+            apply_transform(la);
         } else if (d == "Transform" || d == "ConcatTransform") {
             std::vector<double> v = expect_numbers(tok, d, 16);
             Mat4 m;
@@ -858,9 +864,20 @@ void Parser::parse(Tokenizer &tok, const std::string &dir, int depth) {
             scene_.instances.push_back({name, state_.ctm, loc});
         } else if (d == "MakeNamedMedium") {
             std::string name = expect_string(tok, d);
-            parse_params(tok, dir);
-            warn(loc, "participating media are not supported; medium \"" + name +
-                          "\" is ignored");
+            ParamSet ps = parse_params(tok, dir);
+            const Param *type = ps.find("type");
+            if (!type || type->type != "string" || type->strings.size() != 1)
+                throw SceneError(loc, "MakeNamedMedium \"" + name +
+                                          "\": no \"string type\" parameter");
+            const std::string &t = type->strings[0];
+            static const char *kMediumTypes[] = {"homogeneous", "uniformgrid", "rgbgrid", "cloud",
+                                                 "nanovdb"};
+            if (std::find(std::begin(kMediumTypes), std::end(kMediumTypes), t) ==
+                std::end(kMediumTypes))
+                throw SceneError(type->loc, "MakeNamedMedium \"" + name + "\": unknown medium type \"" +
+                                                t + "\"");
+            warn(loc, "participating media are not supported; medium \"" + name + "\" (" + t +
+                          ") is ignored");
         } else if (d == "MediumInterface") {
             expect_string(tok, d);
             const Token *p = tok.peek();

@@ -128,8 +128,10 @@ void apply_settings(const SceneDesc &d, const SceneOverrides &ov, Scene &sc) {
         // pbrt-v4: "gbuffer" adds the geometric AOVs to the RGB image; "rgb" has none.
         if (d.film.type == "gbuffer")
             s.aovs = sampling::AovSet::all();
+        else if (d.film.type == "spectral")
+            warn(d.film.loc, "Film \"spectral\" is rendered as an \"rgb\" film");
         else if (d.film.type != "rgb")
-            warn(d.film.loc, "Film \"" + d.film.type + "\" is rendered as an \"rgb\" film");
+            throw SceneError(d.film.loc, "unknown film type \"" + d.film.type + "\"");
         s.width = ps.get_int("xresolution", 1280);
         s.height = ps.get_int("yresolution", 720);
         s.output = ps.get_string("filename", "pbrt.exr");
@@ -179,6 +181,11 @@ void apply_settings(const SceneDesc &d, const SceneOverrides &ov, Scene &sc) {
         s.output = "pbrt.exr";
     }
     if (d.sampler.present) {
+        static const char *kSamplers[] = {"zsobol", "paddedsobol", "sobol",      "halton",
+                                          "pmj02bn", "independent", "stratified"};
+        if (std::find(std::begin(kSamplers), std::end(kSamplers), d.sampler.type) ==
+            std::end(kSamplers))
+            throw SceneError(d.sampler.loc, "unknown sampler type \"" + d.sampler.type + "\"");
         s.spp = d.sampler.params.get_int("pixelsamples", 16);
         // Tessera always uses its Owen-scrambled Sobol sequence; the other sampler parameters
         // (seed, randomization, jitter) select variants of equal expectation.
@@ -191,6 +198,12 @@ void apply_settings(const SceneDesc &d, const SceneOverrides &ov, Scene &sc) {
     if (d.integrator.present) {
         const ParamSet &ps = d.integrator.params;
         const std::string &t = d.integrator.type;
+        static const char *kIntegrators[] = {
+            "path",       "volpath",       "bdpt",      "mlt",     "sppm", "ambientocclusion",
+            "randomwalk", "simplevolpath", "simplepath", "lightpath", "aov", "function"};
+        if (std::find(std::begin(kIntegrators), std::end(kIntegrators), t) ==
+            std::end(kIntegrators))
+            throw SceneError(d.integrator.loc, "unknown integrator type \"" + t + "\"");
         if (t != "path" && t != "volpath")
             warn(d.integrator.loc, "Integrator \"" + t +
                                        "\" is not supported; using the \"path\" integrator");
@@ -230,17 +243,19 @@ void apply_settings(const SceneDesc &d, const SceneOverrides &ov, Scene &sc) {
     } else if (ft == "triangle") {
         sc.filter = PixelFilter(PixelFilter::Kind::Triangle,
                                 {fp.get_float("xradius", 2.f), fp.get_float("yradius", 2.f)});
-    } else {
-        if (ft != "gaussian")
-            warn(d.filter.loc, "PixelFilter \"" + ft +
-                                   "\" (negative lobes) is replaced by the gaussian filter");
-        float r = ft == "gaussian" ? 1.5f : 1.5f;
+    } else if (ft == "gaussian") {
         sc.filter = PixelFilter(PixelFilter::Kind::Gaussian,
-                                {ft == "gaussian" ? fp.get_float("xradius", r) : r,
-                                 ft == "gaussian" ? fp.get_float("yradius", r) : r},
-                                ft == "gaussian" ? fp.get_float("sigma", 0.5f) : 0.5f);
-        if (ft != "gaussian")
-            for (const Param &p : fp.params) p.used = true;
+                                {fp.get_float("xradius", 1.5f), fp.get_float("yradius", 1.5f)},
+                                fp.get_float("sigma", 0.5f));
+    } else if (ft == "mitchell") {
+        sc.filter = PixelFilter::mitchell(
+            {fp.get_float("xradius", 2.f), fp.get_float("yradius", 2.f)},
+            fp.get_float("B", 1.f / 3.f), fp.get_float("C", 1.f / 3.f));
+    } else if (ft == "sinc") {
+        sc.filter = PixelFilter::lanczos(
+            {fp.get_float("xradius", 4.f), fp.get_float("yradius", 4.f)}, fp.get_float("tau", 3.f));
+    } else {
+        throw SceneError(d.filter.loc, "unknown pixel filter type \"" + ft + "\"");
     }
     if (d.filter.present) fp.report_unused("PixelFilter");
 
@@ -597,8 +612,9 @@ struct Builder {
             add_curve(group, sd, xf, material, emissive);
             return;
         }
-        warn(sd.loc, "Shape \"" + sd.type + "\" is not supported; it is not rendered");
-        for (const Param &p : sd.params.params) p.used = true;
+        // Every shape of pbrt-v4 is handled above; pbrt-v4 stops on any other (pbrt-v3's
+        // "cone", "paraboloid", "hyperboloid", "heightfield", "nurbs" among them).
+        throw SceneError(sd.loc, "unknown shape type \"" + sd.type + "\"");
     }
 
     /// Shapes without an alpha test: constant alpha 0 hides them (pbrt-v4); any other alpha

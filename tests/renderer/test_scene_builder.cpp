@@ -235,26 +235,16 @@ ObjectInstance "glassball"
     }
 }
 
-TEST_CASE("build_scene: an unsupported shape warns and the scene still builds") {
-    int before = warning_count();
-    std::unique_ptr<Scene> sc = build_named(R"(
+TEST_CASE("build_scene: an unknown shape type is an error naming its line, as in pbrt-v4") {
+    // pbrt-v3's "hyperboloid" is not a pbrt-v4 shape: pbrt-v4 stops on it.
+    CHECK_THROWS_WITH(build_named(R"(
 WorldBegin
 LightSource "point" "point3 from" [ 0 0 -2 ] "rgb I" [ 1 1 1 ]
 Shape "hyperboloid" "point3 p1" [ 0 0 0 ] "point3 p2" [ 1 1 1 ]
 Shape "trianglemesh" "point3 P" [ -1 -1 1  1 -1 1  0 1 1 ]
 )",
-                                            "unsupported_shape.pbrt");
-    REQUIRE(sc);
-    CHECK(warning_count() > before);
-    CHECK(sc->geometry->triangle_count() == 1);
-    // The warning names where the shape is: line 4 of the text.
-    bool found = false;
-    // last_warning() is the most recent; the shape warning may be followed by none other here.
-    std::string w = last_warning();
-    if (w.find("unsupported_shape.pbrt:4: warning:") == 0 &&
-        w.find("hyperboloid") != std::string::npos)
-        found = true;
-    CHECK_MESSAGE(found, "last warning: " << w);
+                                  "unknown_shape.pbrt"),
+                      doctest::Contains("unknown_shape.pbrt:4: unknown shape type \"hyperboloid\""));
 }
 
 TEST_CASE("build_scene: curves warn where pbrt-v4 does (unknown type, stray normals, lights)") {
@@ -286,12 +276,23 @@ LightSource "point" "point3 from" [ 0 0 -2 ] "rgb I" [ 1 1 1 ]
     }
 }
 
-TEST_CASE("build_scene: an unsupported material type warns and the scene still builds") {
+TEST_CASE("build_scene: an unknown material type is an error naming its line") {
+    CHECK_THROWS_WITH(build_named(R"(
+WorldBegin
+LightSource "point" "point3 from" [ 0 0 -2 ] "rgb I" [ 1 1 1 ]
+Material "frobnium" "float shininess" [ 3 ]
+Shape "trianglemesh" "point3 P" [ -1 -1 1  1 -1 1  0 1 1 ]
+)",
+                                  "unknown_material.pbrt"),
+                      doctest::Contains("unknown_material.pbrt:4: unknown material type \"frobnium\""));
+}
+
+TEST_CASE("build_scene: a pbrt-v4 material Tessera lacks warns and the scene still builds") {
     int before = warning_count();
     std::unique_ptr<Scene> sc = build_named(R"(
 WorldBegin
 LightSource "point" "point3 from" [ 0 0 -2 ] "rgb I" [ 1 1 1 ]
-Material "frobnium" "float shininess" [ 3 ]
+Material "measured" "string filename" [ "no-such.bsdf" ]
 Shape "trianglemesh" "point3 P" [ -1 -1 1  1 -1 1  0 1 1 ]
 )",
                                             "unsupported_material.pbrt");
@@ -306,7 +307,7 @@ Shape "trianglemesh" "point3 P" [ -1 -1 1  1 -1 1  0 1 1 ]
     std::unique_ptr<Scene> small = build_named(R"(
 WorldBegin
 LightSource "point" "point3 from" [ 0 0 -2 ] "rgb I" [ 1 1 1 ]
-Material "frobnium"
+Material "subsurface"
 Shape "trianglemesh" "point3 P" [ -1 -1 1  1 -1 1  0 1 1 ]
 )",
                                                "unsupported_material_small.pbrt", ov);
