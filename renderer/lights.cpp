@@ -5,6 +5,7 @@
 
 #include <OpenImageIO/imageio.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <sstream>
@@ -821,6 +822,33 @@ std::vector<Rgb> read_rgb_image(const std::string &path, const FileLoc &loc, int
 
 namespace {
 
+/// The weights pbrt-v4 gives an environment image's R, G and B values when it computes the
+/// map's illuminance. pbrt-v4 (lights.cpp, Light::Create) sums values[c] * lum[c], c = 0..2,
+/// over the image's channels *as stored*, lum being the luminance coefficients of R, G, B.
+/// OpenEXR stores channels sorted by name (B, G, R), so for an EXR file pbrt-v4 weighs blue
+/// by red's coefficient and red by blue's; other formats store R, G, B in that order. Tessera
+/// uses the same weights, so that "illuminance" gives the brightness it gives in pbrt-v4.
+Rgb pbrt_illuminance_weights(const std::string &path, const FileLoc &loc) {
+    const Rgb lum(0.2126f, 0.7152f, 0.0722f);
+    auto in = OIIO::ImageInput::open(path);
+    if (!in || std::string(in->format_name()) != "openexr") return lum;
+    std::vector<std::string> names = in->spec().channelnames;
+    std::sort(names.begin(), names.end());
+    Rgb w(0.f);
+    const float coef[3] = {lum.r, lum.g, lum.b};
+    for (size_t c = 0; c < 3 && c < names.size(); ++c) {
+        if (names[c] == "R") w.r = coef[c];
+        else if (names[c] == "G") w.g = coef[c];
+        else if (names[c] == "B") w.b = coef[c];
+        else {
+            warn(loc, "\"" + path + "\": pbrt-v4 computes \"illuminance\" from the first three "
+                      "channels stored, here not R, G and B; Tessera uses the luminance instead");
+            return lum;
+        }
+    }
+    return w;
+}
+
 std::unique_ptr<Light> make_infinite(const LightDesc &desc) {
     const ParamSet &ps = desc.params;
     std::optional<Rgb> L = ps.get_rgb("L", true);
@@ -863,6 +891,7 @@ std::unique_ptr<Light> make_infinite(const LightDesc &desc) {
     }
     if (E_v > 0.f) {
         // Illuminance of the map on an upward (+z in light space) patch, by pixel centres.
+        const Rgb lum = pbrt_illuminance_weights(path, desc.loc);
         double e = 0;
         for (int y = 0; y < h; ++y)
             for (int x = 0; x < w; ++x) {
@@ -874,8 +903,8 @@ std::unique_ptr<Light> make_infinite(const LightDesc &desc) {
                     mapping == ImageInfiniteLight::Mapping::EqualArea
                         ? 4.0 * kPi / (double(w) * h)
                         : 2.0 * kPi * kPi / (double(w) * h) * std::sin(kPi * (y + 0.5f) / h);
-                e +=
-                    double(pixels[size_t(y) * size_t(w) + size_t(x)].luminance()) * dir.z * d_omega;
+                const Rgb &p = pixels[size_t(y) * size_t(w) + size_t(x)];
+                e += double(lum.r * p.r + lum.g * p.g + lum.b * p.b) * dir.z * d_omega;
             }
         // NOTE: pbrt-v4 (lights.cpp, Light::Create) weights each pixel by 2 pi / (w h) instead
         // of the 4 pi / (w h) an equal-area pixel covers, i.e. it computes half the map's

@@ -1,6 +1,7 @@
 // Spectrum -> linear sRGB conversions for pbrt-v4 scene parameters (see spectra.h).
 #include "renderer/spectra.h"
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <vector>
@@ -9,11 +10,37 @@ namespace tessera {
 
 namespace {
 
-/// Piecewise Gaussian of Wyman et al. 2013, eq. 2: different widths left and right of `mu`.
-double lobe(double x, double mu, double sigma_left, double sigma_right) {
-    double t = (x - mu) / (x < mu ? sigma_left : sigma_right);
-    return std::exp(-0.5 * t * t);
-}
+/// The CIE 1931 2-degree standard colorimetric observer, xbar ybar zbar at 380, 385, ...,
+/// 780 nm (CIE 15:2004, table T.4, 5 nm steps).
+constexpr double kCie1931[81][3] = {
+    {0.001368, 0.000039, 0.006450},  {0.002236, 0.000064, 0.010550},  {0.004243, 0.000120, 0.020050},
+    {0.007650, 0.000217, 0.036210},  {0.014310, 0.000396, 0.067850},  {0.023190, 0.000640, 0.110200},
+    {0.043510, 0.001210, 0.207400},  {0.077630, 0.002180, 0.371300},  {0.134380, 0.004000, 0.645600},
+    {0.214770, 0.007300, 1.039050},  {0.283900, 0.011600, 1.385600},  {0.328500, 0.016840, 1.622960},
+    {0.348280, 0.023000, 1.747060},  {0.348060, 0.029800, 1.782600},  {0.336200, 0.038000, 1.772110},
+    {0.318700, 0.048000, 1.744100},  {0.290800, 0.060000, 1.669200},  {0.251100, 0.073900, 1.528100},
+    {0.195360, 0.090980, 1.287640},  {0.142100, 0.112600, 1.041900},  {0.095640, 0.139020, 0.812950},
+    {0.058010, 0.169300, 0.616200},  {0.032010, 0.208020, 0.465180},  {0.014700, 0.258600, 0.353300},
+    {0.004900, 0.323000, 0.272000},  {0.002400, 0.407300, 0.212300},  {0.009300, 0.503000, 0.158200},
+    {0.029100, 0.608200, 0.111700},  {0.063270, 0.710000, 0.078250},  {0.109600, 0.793200, 0.057250},
+    {0.165500, 0.862000, 0.042160},  {0.225750, 0.914850, 0.029840},  {0.290400, 0.954000, 0.020300},
+    {0.359700, 0.980300, 0.013400},  {0.433450, 0.994950, 0.008750},  {0.512050, 1.000000, 0.005750},
+    {0.594500, 0.995000, 0.003900},  {0.678400, 0.978600, 0.002750},  {0.762100, 0.952000, 0.002100},
+    {0.842500, 0.915400, 0.001800},  {0.916300, 0.870000, 0.001650},  {0.978600, 0.816300, 0.001400},
+    {1.026300, 0.757000, 0.001100},  {1.056700, 0.694900, 0.001000},  {1.062200, 0.631000, 0.000800},
+    {1.045600, 0.566800, 0.000600},  {1.002600, 0.503000, 0.000340},  {0.938400, 0.441200, 0.000240},
+    {0.854450, 0.381000, 0.000190},  {0.751400, 0.321000, 0.000100},  {0.642400, 0.265000, 0.000050},
+    {0.541900, 0.217000, 0.000030},  {0.447900, 0.175000, 0.000020},  {0.360800, 0.138200, 0.000010},
+    {0.283500, 0.107000, 0.000000},  {0.218700, 0.081600, 0.000000},  {0.164900, 0.061000, 0.000000},
+    {0.121200, 0.044580, 0.000000},  {0.087400, 0.032000, 0.000000},  {0.063600, 0.023200, 0.000000},
+    {0.046770, 0.017000, 0.000000},  {0.032900, 0.011920, 0.000000},  {0.022700, 0.008210, 0.000000},
+    {0.015840, 0.005723, 0.000000},  {0.011359, 0.004102, 0.000000},  {0.008111, 0.002929, 0.000000},
+    {0.005790, 0.002091, 0.000000},  {0.004109, 0.001484, 0.000000},  {0.002899, 0.001047, 0.000000},
+    {0.002049, 0.000740, 0.000000},  {0.001440, 0.000520, 0.000000},  {0.001000, 0.000361, 0.000000},
+    {0.000690, 0.000249, 0.000000},  {0.000476, 0.000172, 0.000000},  {0.000332, 0.000120, 0.000000},
+    {0.000235, 0.000085, 0.000000},  {0.000166, 0.000060, 0.000000},  {0.000117, 0.000042, 0.000000},
+    {0.000083, 0.000030, 0.000000},  {0.000059, 0.000021, 0.000000},  {0.000042, 0.000015, 0.000000},
+};
 
 /// CIE standard illuminant D65, relative spectral power at 380, 390, ..., 780 nm (CIE 15:2004,
 /// table T.1, 10 nm steps).
@@ -128,13 +155,15 @@ constexpr IlluminantEntry kIlluminants[] = {
 }  // namespace
 
 Vec3f cie_xyz(float lambda_nm) {
-    // Wyman, Sloan, Shirley 2013, "multi-lobe" fit (eq. 2), error about 1% of the peak.
-    double l = lambda_nm;
-    double x = 1.056 * lobe(l, 599.8, 37.9, 31.0) + 0.362 * lobe(l, 442.0, 16.0, 26.7) -
-               0.065 * lobe(l, 501.1, 20.4, 26.2);
-    double y = 0.821 * lobe(l, 568.8, 46.9, 40.5) + 0.286 * lobe(l, 530.9, 16.3, 31.1);
-    double z = 1.217 * lobe(l, 437.0, 11.8, 36.0) + 0.681 * lobe(l, 459.0, 26.0, 13.8);
-    return {float(x), float(y), float(z)};
+    // The CIE 1931 table, linearly interpolated; 0 outside 380-780 nm (the matching functions
+    // are below 1e-4 of their peak there).
+    const double l = lambda_nm;
+    if (!(l >= 380 && l <= 780)) return {0.f, 0.f, 0.f};
+    const double x = (l - 380) / 5;
+    const int i = std::min(int(x), 79);
+    const double t = x - i;
+    auto lerp = [&](int c) { return float((1 - t) * kCie1931[i][c] + t * kCie1931[i + 1][c]); };
+    return {lerp(0), lerp(1), lerp(2)};
 }
 
 Rgb xyz_to_linear_srgb(Vec3f c) {
@@ -228,13 +257,13 @@ Rgb sampled_spectrum_rgb(std::span<const float> lambda_nm, std::span<const float
     auto s = [&](double l) { return eval_pwl(lambda_nm, values, l); };
     if (illuminant) return normalised_rgb(integrate_xyz(s));
     // Reflectance: reflected light of D65 relative to D65's own luminance, so that the
-    // constant spectrum 1 maps to sRGB white (1, 1, 1) up to the accuracy of the CMF fit.
+    // constant spectrum 1 maps to sRGB white (1, 1, 1) up to the rounding of the tables.
     std::array<double, 3> xyz = integrate_xyz([&](double l) { return s(l) * d65(l); });
     std::array<double, 3> white = integrate_xyz(d65);
     Rgb rgb = xyz_to_linear_srgb(Vec3f(float(xyz[0] / white[1]), float(xyz[1] / white[1]),
                                        float(xyz[2] / white[1])));
-    // Remove the small residual tint of the fitted matching functions: divide by the RGB of the
-    // perfect white reflector.
+    // Remove the small residual tint of the tables (D65's tabulated chromaticity against the
+    // sRGB white point): divide by the RGB of the perfect white reflector.
     Rgb w = xyz_to_linear_srgb(Vec3f(float(white[0] / white[1]), 1.f,
                                      float(white[2] / white[1])));
     return clamp_zero(rgb / w);  // out-of-gamut reflectances: no negative components

@@ -12,9 +12,9 @@
 //  - Unbounded values such as conductor eta and k: the plain average of the spectrum over three
 //    bands, blue 400-500 nm, green 500-600 nm, red 600-700 nm. Colour-matching projections of
 //    eta/k give meaningless (even negative) values, band averages keep Fresnel plausible.
-// CIE 1931 2-degree matching functions use the multi-lobe Gaussian fit of Wyman, Sloan and
-// Shirley, "Simple Analytic Approximations to the CIE XYZ Color Matching Functions", JCGT 2(2),
-// 2013 (eq. 2). XYZ -> linear sRGB uses the IEC 61966-2-1 matrix.
+// The CIE 1931 2-degree matching functions are the CIE's table (CIE 15:2004, 5 nm steps,
+// linearly interpolated), as pbrt-v4 uses them. XYZ -> linear sRGB uses the IEC 61966-2-1
+// matrix.
 // All functions are pure and thread-safe.
 #pragma once
 
@@ -28,7 +28,7 @@
 
 namespace tessera {
 
-/// CIE 1931 XYZ of a monochromatic unit stimulus at `lambda_nm` (Wyman et al. 2013 fit).
+/// CIE 1931 XYZ of a monochromatic unit stimulus at `lambda_nm` (the CIE 1931 table).
 Vec3f cie_xyz(float lambda_nm);
 
 /// XYZ -> linear sRGB (Rec.709 primaries, D65 white), IEC 61966-2-1.
