@@ -323,6 +323,7 @@ class InterfaceMaterial final : public Material {
     }
     uint8_t possible_flags() const override { return 0; }
     bool reads_texture() const override { return false; }
+    bool is_interface() const override { return true; }
     std::string describe() const override { return "interface"; }
 };
 

@@ -52,6 +52,8 @@ class Material {
 
     /// Sets pbrt's "displacement" texture: bump mapping of the shading normal.
     void set_displacement(const FloatTexture *displacement) { displacement_ = displacement; }
+    /// True for pbrt-v4's "interface" material: no surface, only a boundary between media.
+    virtual bool is_interface() const { return false; }
     /// Sets pbrt's "normalmap": a tangent-space normal map (shared, immutable once loaded).
     void set_normal_map(std::shared_ptr<const struct NormalMapImage> map) { normal_map_ = map; }
 

@@ -41,6 +41,9 @@ struct RenderSettings {
     int spp = 16;                    ///< pbrt-v4 sampler default pixelsamples
     int max_depth = 5;               ///< pbrt-v4 path integrator default
     bool regularize = false;
+    /// The scene's Integrator is pbrt-v4's "volpath" (its default) rather than "path": the two
+    /// treat surfaces without a material ("interface") differently for shadow rays.
+    bool volpath = true;
     uint32_t seed = 0;
     std::string output;              ///< Film "filename" (pbrt default "pbrt.exr")
     /// pbrt-v4 sensor imaging ratio: (shutterclose - shutteropen) * Film "iso" / 100.

@@ -207,6 +207,7 @@ void apply_settings(const SceneDesc &d, const SceneOverrides &ov, Scene &sc) {
         if (t != "path" && t != "volpath")
             warn(d.integrator.loc, "Integrator \"" + t +
                                        "\" is not supported; using the \"path\" integrator");
+        s.volpath = t != "path";
         s.max_depth = ps.get_int("maxdepth", 5);
         s.regularize = ps.get_bool("regularize", false);
         if (s.regularize)
@@ -517,6 +518,16 @@ struct Builder {
         warn_shape_params(sd);
         int material = material_of(sd);
         bool emissive = sd.area_light.has_value() && allow_lights;
+        // pbrt-v4's volumetric path tracer (its default integrator) passes through a surface
+        // without a material both along paths and with its shadow rays (VolPathIntegrator::
+        // SampleLd traces shadow rays through them); without media such a surface changes
+        // nothing, so it is not built. pbrt-v4's "path" integrator continues paths through it
+        // but lets it block shadow rays (Integrator::Unoccluded); so does Tessera's.
+        if (!emissive && sc.settings.volpath &&
+            mats.materials()[size_t(material)]->is_interface()) {
+            for (const Param &p : sd.params.params) p.used = true;
+            return;
+        }
         if (emissive && sd.area_light_type != "diffuse" && !sd.area_light_type.empty())
             throw SceneError(sd.area_light_loc,
                              "AreaLightSource \"" + sd.area_light_type + "\" is not supported");
