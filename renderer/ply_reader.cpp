@@ -231,7 +231,8 @@ uint64_t list_count(Src &src, const Where &w, const PlyProperty &p) {
 // ---------------------------------------------------------------------------------------------
 // Vertices.
 
-/// Vertex outputs by slot: x y z nx ny nz u v. A slot's value i goes to dst[slot] + i * stride.
+/// Vertex outputs by slot: x y z nx ny nz u v. A slot's value i goes to dst[slot] + i * stride;
+/// dst is null for a slot the mesh does not keep (and for all when there are no vertices).
 constexpr int kSlots = 8;
 struct VertexOut {
     uint8_t *dst[kSlots] = {};
@@ -381,6 +382,8 @@ void read_vertices_general(Src &src, Where &w, const PlyElement &e, const Vertex
 // Faces.
 
 /// The triangles cut from the faces, in arrays that grow only after check_mesh allowed it.
+/// The face each triangle comes from is recorded only once a polygon has been seen: until
+/// then triangle t comes from face t plus the faces of fewer than 3 vertices skipped before it.
 class TriangleOut {
   public:
     TriangleOut(uint64_t vertices, uint64_t faces, bool face_ids, const std::string &path)
@@ -399,18 +402,24 @@ class TriangleOut {
         t[0] = a;
         t[1] = b;
         t[2] = c;
-        face_[count_++] = face;
+        if (polygons_) face_[count_] = face;
+        ++count_;
     }
     /// Appends the fan of a polygon (v0 vi vi+1): a quad (v0 v1 v2 v3) gives (v0 v1 v2) and
     /// (v0 v2 v3). Faces of fewer than 3 vertices are counted and dropped.
     void add(const uint32_t *v, uint64_t n, uint32_t face) {
         if (n < 3) {
+            if (!polygons_) {
+                if (skips_.empty() || skips_.back().first != count_)
+                    skips_.push_back({uint32_t(count_), 0});
+                ++skips_.back().second;
+            }
             ++skipped_;
             return;
         }
         reserve(n - 2);
+        if (n > 3 && !polygons_) record_faces();
         for (uint64_t j = 1; j + 1 < n; ++j) put(v[0], v[j], v[j + 1], face);
-        polygons_ = polygons_ || n > 3;
     }
     uint64_t count() const { return count_; }
     /// Gives the triangles of the last face(s) their "face_indices" value.
@@ -436,8 +445,20 @@ class TriangleOut {
         check_mesh(vertices_, triangles, "PLY mesh", FileLoc{path_, 0});
         capacity_ = triangles;
         idx_.resize(3 * capacity_);
-        face_.resize(capacity_);
+        if (polygons_) face_.resize(capacity_);
         if (face_ids_) ids_.resize(capacity_);
+    }
+    /// The first polygon: the faces of the triangles so far, from the skips.
+    void record_faces() {
+        polygons_ = true;
+        face_.resize(capacity_);
+        size_t k = 0;
+        uint64_t shift = 0;
+        for (uint64_t t = 0; t < count_; ++t) {
+            for (; k < skips_.size() && skips_[k].first <= t; ++k) shift += skips_[k].second;
+            face_[t] = uint32_t(t + shift);
+        }
+        skips_ = {};
     }
     uint64_t vertices_;
     bool face_ids_;
@@ -445,6 +466,9 @@ class TriangleOut {
     uint64_t count_ = 0, capacity_ = 0, skipped_ = 0;
     bool polygons_ = false;
     std::vector<uint32_t> idx_, face_;
+    /// Until the first polygon: (count_, faces skipped there) for each run of skipped faces;
+    /// at most one entry per triangle.
+    std::vector<std::pair<uint32_t, uint32_t>> skips_;
     std::vector<int> ids_;
 };
 
@@ -824,7 +848,7 @@ MeshData read_ply_mesh(std::string_view bytes, const std::string &path) {
     if (vlay.normals) m.n.resize(vertices);
     if (vlay.uvs) m.uv.resize(vertices);
     VertexOut vout;
-    for (int s = 0; s < kSlots; ++s) {
+    for (int s = 0; s < kSlots && vertices > 0; ++s) {
         uint8_t *base = s < 3 ? reinterpret_cast<uint8_t *>(m.p.data())
                         : s < 6 ? reinterpret_cast<uint8_t *>(m.n.data())
                                 : reinterpret_cast<uint8_t *>(m.uv.data());

@@ -66,7 +66,7 @@ inline void run_pbrt(std::string_view bytes) {
     build_scene(desc, ov);
 }
 
-/// Loads `bytes` as a PLY file with load_ply (assimp).
+/// Loads `bytes` as a PLY file with load_ply (Tessera's reader, renderer/ply_reader.h).
 inline void run_ply(std::string_view bytes) {
     std::filesystem::path p = scratch_dir() / "fuzz.ply";
     write_file(p, bytes);

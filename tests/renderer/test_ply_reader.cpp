@@ -603,6 +603,23 @@ TEST_CASE("PLY reader: what pbrt-v4 takes and leaves") {
     CHECK(m.indices == std::vector<uint32_t>{0, 1, 2});
     CHECK(warning_count() == warnings + 1);
     CHECK(last_warning().find("2 faces with fewer than 3 vertices ignored") != std::string::npos);
+    // Skipped faces before the first polygon still count in face_of_triangle.
+    const std::string mixed =
+        "ply\nformat binary_little_endian 1.0\nelement vertex 4\nproperty float x\n"
+        "property float y\nproperty float z\nelement face 6\n"
+        "property list uchar int vertex_indices\nend_header\n";
+    std::string mb = mixed;
+    for (float f : {0.f, 0.f, 0.f, 1.f, 0.f, 0.f, 1.f, 1.f, 0.f, 0.f, 1.f, 0.f})
+        put_bytes(mb, f, false);
+    for (const std::vector<int32_t> &face : std::vector<std::vector<int32_t>>{
+             {0, 1, 2}, {}, {1, 2}, {0, 2, 3}, {0, 1, 2, 3}, {3}})
+        {
+            put_bytes(mb, uint8_t(face.size()), false);
+            for (int32_t i : face) put_bytes(mb, i, false);
+        }
+    m = load_ply(write_file("mixed.ply", mb));
+    CHECK(m.indices == std::vector<uint32_t>{0, 1, 2, 0, 2, 3, 0, 1, 2, 0, 2, 3});
+    CHECK(m.face_of_triangle == std::vector<uint32_t>{0, 3, 4, 4});
 }
 
 TEST_CASE("PLY reader: errors name the file, the element and the record") {
