@@ -840,7 +840,8 @@ MeshData read_ply_mesh(std::string_view bytes, const std::string &path) {
                        std::to_string(bytes.size()) +
                        " bytes of the file can hold (truncated or corrupt file)");
     const uint64_t vertices = vertex->count;
-    // Every face gives at least one triangle; polygons are checked again as they come.
+    // The mesh the header describes, a triangle a face, must fit the limits; polygons are
+    // checked again as their triangles come.
     check_mesh(vertices, face->count, "PLY mesh", FileLoc{path, 0});
 
     MeshData m;
@@ -857,7 +858,13 @@ MeshData read_ply_mesh(std::string_view bytes, const std::string &path) {
         vout.dst[s] = base + 4 * (s < 6 ? s % 3 : s - 6);
         vout.stride[s] = s < 6 ? 12 : 8;
     }
-    TriangleOut tris(vertices, face->count, flay.face_index >= 0, path);
+    // Room for one triangle a face, as far as the file can hold such faces (a face of fewer
+    // vertices takes less room and gives no triangle); polygons grow the arrays as they come.
+    const uint64_t triangle_face_bytes =
+        min_record_size(*face, ascii) +
+        3 * (ascii ? 2 : ply_type_size(face->properties[size_t(flay.indices)].type));
+    TriangleOut tris(vertices, std::min(face->count, body / triangle_face_bytes + 1),
+                     flay.face_index >= 0, path);
 
     Where w;
     w.path = &path;

@@ -71,6 +71,7 @@ for t in "${targets[@]}"; do
     mkdir -p "$corpus" "$artifacts"
     dict=()
     [[ $t == fuzz_pbrt ]] && dict=(-dict="$root/tests/fuzz/pbrt.dict")
+    [[ $t == fuzz_ply ]] && dict=(-dict="$root/tests/fuzz/ply.dict")
     seed_dir="$(seeds_for "$t")"
     echo "== fuzz: $t for ${seconds} s"
     log="$build/$t.log"
