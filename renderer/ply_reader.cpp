@@ -172,46 +172,52 @@ struct AsciiSource {
         if (pos == b) where->truncated();
         return {b, size_t(pos - b)};
     }
+    /// The start of the next token (a '+' sign skipped), after whitespace.
+    const char *next_number() {
+        while (pos < end && is_space(*pos)) ++pos;
+        if (pos == end) where->truncated();
+        const bool plus = *pos == '+' && end - pos > 1 &&
+                          (pos[1] == '.' || (pos[1] >= '0' && pos[1] <= '9'));
+        return plus ? pos + 1 : pos;
+    }
+    /// Parses the number at b with from_chars, which must end at the token's end: the
+    /// conversion and the token scan in one pass.
+    template <typename T>
+    T parse(const char *b, const PlyProperty &p, PlyType t) {
+        T v{};
+        const auto r = std::from_chars(b, end, v);
+        if (r.ec != std::errc() || (r.ptr != end && !is_space(*r.ptr))) [[unlikely]] {
+            const std::string_view tok = token();
+            if (r.ec == std::errc::result_out_of_range)
+                bad(p, tok, (std::string("is out of range for ") + ply_type_name(t)).c_str());
+            bad(p, tok, std::is_integral_v<T> ? "is not an integer" : "is not a number");
+        }
+        pos = r.ptr;
+        return v;
+    }
     [[noreturn]] void bad(const PlyProperty &p, std::string_view tok, const char *what) {
         where->fail("property \"" + p.name + "\": " + quoted(tok) + " " + what);
     }
     int64_t get_int(PlyType t, const PlyProperty &p) {
-        std::string_view tok = token();
-        std::string_view digits = tok.size() > 1 && tok[0] == '+' ? tok.substr(1) : tok;
-        int64_t v = 0;
-        auto r = std::from_chars(digits.data(), digits.data() + digits.size(), v);
-        if (r.ec == std::errc::result_out_of_range) bad(p, tok, "is out of range");
-        if (r.ec != std::errc() || r.ptr != digits.data() + digits.size())
-            bad(p, tok, "is not an integer");
-        int64_t lo = 0, hi = 0;
-        with_type(t, [&](auto tag) {
-            using T = decltype(tag);
-            lo = int64_t(std::numeric_limits<T>::lowest());
-            hi = int64_t(std::numeric_limits<T>::max());
-        });
-        if (v < lo || v > hi)
-            bad(p, tok, (std::string("is out of range for ") + ply_type_name(t)).c_str());
+        const char *b = next_number();
+        const char *start = pos;
+        const int64_t v = parse<int64_t>(b, p, t);
+        // The range of each integer type, in PlyType order.
+        static constexpr int64_t kLo[6] = {INT8_MIN, 0, INT16_MIN, 0, INT32_MIN, 0};
+        static constexpr int64_t kHi[6] = {INT8_MAX, UINT8_MAX, INT16_MAX, UINT16_MAX, INT32_MAX,
+                                           UINT32_MAX};
+        if (v < kLo[int(t)] || v > kHi[int(t)]) [[unlikely]] {
+            pos = start;
+            bad(p, token(), (std::string("is out of range for ") + ply_type_name(t)).c_str());
+        }
         return v;
     }
     double get_real(PlyType t, const PlyProperty &p) {
         if (ply_type_is_integer(t)) return double(get_int(t, p));
-        std::string_view tok = token();
-        std::string_view num = tok.size() > 1 && tok[0] == '+' ? tok.substr(1) : tok;
-        const char *b = num.data(), *e = num.data() + num.size();
-        std::from_chars_result r;
-        double v = 0;
-        if (t == PlyType::Float32) {
-            // Parsed as float directly: correctly rounded, no double rounding via double.
-            float f = 0;
-            r = std::from_chars(b, e, f);
-            v = f;
-        } else {
-            r = std::from_chars(b, e, v);
-        }
-        if (r.ec == std::errc::result_out_of_range)
-            bad(p, tok, (std::string("is out of range for ") + ply_type_name(t)).c_str());
-        if (r.ec != std::errc() || r.ptr != e) bad(p, tok, "is not a number");
-        return v;
+        const char *b = next_number();
+        // A float is parsed as float: correctly rounded once, not via double.
+        if (t == PlyType::Float32) return parse<float>(b, p, t);
+        return parse<double>(b, p, t);
     }
     void skip(PlyType, uint64_t n, const PlyProperty &) {
         for (uint64_t i = 0; i < n; ++i) token();
@@ -559,7 +565,8 @@ const uint8_t *read_faces_fast(const uint8_t *pos, const uint8_t *end, Where &w,
         }
         if (n == 3) [[likely]] {
             // A negative int index becomes >= 2^31 as uint32, above every vertex count.
-            const uint32_t a = uint32_t(load<I, Swap>(pos)), b = uint32_t(load<I, Swap>(pos + sizeof(I))),
+            const uint32_t a = uint32_t(load<I, Swap>(pos)),
+                           b = uint32_t(load<I, Swap>(pos + sizeof(I))),
                            c = uint32_t(load<I, Swap>(pos + 2 * sizeof(I)));
             if (a >= vertices || b >= vertices || c >= vertices) [[unlikely]] {
                 w.record = f;

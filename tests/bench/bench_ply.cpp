@@ -13,7 +13,12 @@
 //   parse     read_ply_mesh on bytes already in memory (the decoder alone)
 //   assimp    Assimp::Importer::ReadFile without post-processing, then the copy into MeshData
 //             that Tessera's assimp-based load_ply made (only when built with assimp)
+// malloc is told to keep freed memory (mallopt): otherwise whether an iteration page-faults its
+// buffers in afresh depends on the order the benchmarks run in (glibc trims the heap and maps
+// large blocks anew), by up to 6x on the same reader; here every reader is measured with warm
+// memory, the first touch of a mesh's memory left out for all alike.
 #include <benchmark/benchmark.h>
+#include <malloc.h>
 
 #include <cstdio>
 #include <filesystem>
@@ -51,7 +56,7 @@ void count_bytes(benchmark::State &state, size_t bytes) {
 void BM_Read(benchmark::State &state, std::string path) {
     const size_t size = std::filesystem::file_size(path);
     for (auto _ : state) {
-        // A new buffer each time, as load_ply has: its first touch is part of the cost.
+        // A new buffer each time, as load_ply has.
         auto buf = std::make_unique_for_overwrite<char[]>(size);
         std::FILE *f = std::fopen(path.c_str(), "rb");
         std::setvbuf(f, nullptr, _IONBF, 0);
@@ -144,6 +149,8 @@ std::string write_ascii_copy(const std::string &path) {
 }  // namespace
 
 int main(int argc, char **argv) {
+    mallopt(M_MMAP_THRESHOLD, 1 << 30);
+    mallopt(M_TRIM_THRESHOLD, 1 << 30);
     std::vector<std::string> files;
     std::vector<char *> rest{argv[0]};
     for (int i = 1; i < argc; ++i) {

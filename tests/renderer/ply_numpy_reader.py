@@ -11,9 +11,10 @@ more vertices fanned from their first vertex), the face each triangle comes from
 per-face "face_indices" per triangle. A file it cannot read gets "error <why>" instead.
 
 Output per file: a line "mesh", then one line "name dtype count" per array followed by count
-little-endian values of dtype (f4, u4 or i4), then a line "end". Binary elements without lists are decoded as numpy structured
-arrays; lists record by record, or as one structured array when every list of an element has
-the same length (checked). Exits 77 when numpy is missing, so that the test can skip.
+little-endian values of dtype (f4, u4 or i4), then a line "end". Binary elements without lists
+are decoded as numpy structured arrays; lists record by record, or as one structured array when
+every list of an element has the same length (checked). Exits 77 when numpy is missing, so that
+the test can skip.
 """
 import gzip
 import sys
