@@ -662,6 +662,7 @@ void read_binary_body(const uint8_t *pos, const uint8_t *end, const PlyHeader &h
         const bool lists = std::any_of(e.properties.begin(), e.properties.end(),
                                        [](const PlyProperty &p) { return p.is_list; });
         if (!lists) {
+            // Fixed-size records: one bounds check for the whole element, then no more.
             const uint64_t stride = min_record_size(e, false);
             const uint64_t left = uint64_t(end - pos);
             if (e.count > left / stride) {
@@ -672,6 +673,7 @@ void read_binary_body(const uint8_t *pos, const uint8_t *end, const PlyHeader &h
             pos += e.count * stride;
             continue;
         }
+        // Records with lists have no fixed size: each length is checked as it is read.
         if (e.name == "face") {
             if (auto fast = fast_face_reader<Swap>(e)) {
                 pos = fast(pos, end, w, e, vertices, tris);
@@ -873,6 +875,8 @@ MeshData read_ply_mesh(std::string_view bytes, const std::string &path) {
     TriangleOut tris(vertices, std::min(face->count, body / triangle_face_bytes + 1),
                      flay.face_index >= 0, path);
 
+    // Elements in file order; "vertex" and "face" may come anywhere, before or after each other
+    // (indices are checked against the header's vertex count, known from the start).
     Where w;
     w.path = &path;
     const auto *begin = reinterpret_cast<const uint8_t *>(bytes.data());
