@@ -1,4 +1,5 @@
-// Triangle mesh files: PLY through assimp 5.2, turned into plain arrays for the scene builder.
+// Triangle mesh files: PLY, read by Tessera's own reader (renderer/ply_reader.h) into plain
+// arrays for the scene builder.
 //
 // pbrt-v4's "plymesh" shape (src/pbrt/util/mesh.cpp, TriQuadMesh::ReadPLY) reads positions,
 // optional normals and uvs, triangles and quads, and turns quads into bilinear patches.
@@ -20,8 +21,8 @@ struct MeshData {
     std::vector<Vec3f> n;   ///< per-vertex normals as stored (not normalised); empty if none
     std::vector<Vec2f> uv;  ///< per-vertex texture coordinates; empty if none
     std::vector<uint32_t> indices;  ///< 3 vertex indices per triangle, counter-clockwise as stored
-    /// Per-triangle "face_indices" (pbrt's Ptex face ids). Always empty: assimp drops unknown
-    /// face properties (see load_ply).
+    /// Per triangle, the "face_indices" value of the face it was cut from (pbrt-v4's per-face
+    /// ids, e.g. for Ptex); empty when the file's faces have no such property.
     std::vector<int> face_indices;
     /// Per triangle, the index of the file's face it was cut from (a quad gives two triangles);
     /// empty when every face is a triangle. pbrt-v4 normalises an area light's "power" per
@@ -32,23 +33,28 @@ struct MeshData {
     size_t triangle_count() const { return indices.size() / 3; }
 };
 
-/// Reads a PLY file (ASCII, binary little- or big-endian) with assimp. A path ending in ".gz"
-/// (pbrt-v4-scenes' "mesh.ply.gz") is decompressed into memory first (gzip_io.h), up to a
-/// quarter of the memory budget.
+/// Reads a PLY file (ASCII, binary little- or big-endian; PLY specification, see ply_reader.h).
+/// A path ending in ".gz" (pbrt-v4-scenes' "mesh.ply.gz") is decompressed into memory first
+/// (gzip_io.h), up to a quarter of the memory budget; other files are read whole into memory in
+/// one read.
 ///
-/// Reads vertex positions x/y/z, normals nx/ny/nz and texture coordinates under any of the names
-/// assimp knows (u/v, s/t, texture_u/texture_v, texture_s/texture_t); other vertex properties
-/// are ignored. Faces with 3 vertices are kept as they are; quads are split into two triangles
-/// (v0 v1 v2), (v0 v2 v3); larger polygons are fanned from their first vertex. Vertices keep the
-/// file's order and sharing: assimp 5.2's PLY importer, run with no post-processing, neither
-/// duplicates vertices per face nor triangulates nor generates normals, so this function
-/// triangulates itself and only returns normals the file has.
+/// Reads what pbrt-v4's plymesh reads (TriQuadMesh::ReadPLY), from the elements "vertex" and
+/// "face" in whatever order and wherever they are among other elements: positions x/y/z,
+/// normals nx/ny/nz (when all three are there), texture coordinates under the first of the
+/// names pbrt-v4 accepts (u/v, s/t, texture_u/texture_v, texture_s/texture_t), the face list
+/// "vertex_indices" (or "vertex_index") and the per-face scalar "face_indices". Every property
+/// may have any PLY scalar type (converted to float, indices to uint32, face_indices to int)
+/// and list lengths and indices any integer type; other properties and elements are skipped.
+/// Faces with 3 vertices are kept as they are; quads are split into two triangles
+/// (v0 v1 v2), (v0 v2 v3); larger polygons are fanned from their first vertex; faces with
+/// fewer than 3 vertices are dropped with a warning. Vertices keep the file's order and
+/// sharing, and normals are only those the file has.
 ///
 /// Throws SceneError("path:0: message") when the file is missing or cannot be parsed, when it
-/// has no faces, when a face references a vertex that does not exist, or when the header
-/// declares more vertices or faces than the file can hold or than the limits allow (limits.h;
-/// checked before assimp allocates anything).
-/// Thread-safe (each call uses its own assimp importer).
+/// has no faces, when a face references a vertex that does not exist ("face 12: vertex index 7
+/// out of range (3 vertices)"), when a count or list length is negative or runs past the end of
+/// the file, or when the header declares more than the file can hold or than the limits allow
+/// (limits.h; checked before anything is allocated for it). Thread-safe.
 MeshData load_ply(const std::string &path);
 
 }  // namespace tessera

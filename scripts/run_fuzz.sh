@@ -5,7 +5,7 @@
 #
 #   scripts/run_fuzz.sh [SECONDS_PER_TARGET]      (default 20: about a minute for the three)
 #
-# Targets: fuzz_pbrt (scene tokenizer, parser and builder), fuzz_ply (PLY via assimp),
+# Targets: fuzz_pbrt (scene tokenizer, parser and builder), fuzz_ply (PLY reader),
 # fuzz_obj (OBJ/MTL via tinyobjloader). Seeds: the example scenes, the broken-scene corpus
 # (tests/broken) and tests/fuzz/seeds; the corpus a run grows is kept in
 # $FUZZ_BUILD_DIR/corpus/<target> for the next run. A crashing input is written to
@@ -71,6 +71,7 @@ for t in "${targets[@]}"; do
     mkdir -p "$corpus" "$artifacts"
     dict=()
     [[ $t == fuzz_pbrt ]] && dict=(-dict="$root/tests/fuzz/pbrt.dict")
+    [[ $t == fuzz_ply ]] && dict=(-dict="$root/tests/fuzz/ply.dict")
     seed_dir="$(seeds_for "$t")"
     echo "== fuzz: $t for ${seconds} s"
     log="$build/$t.log"
