@@ -67,6 +67,9 @@ class Pcg32 {
     uint64_t state_ = 0, inc_ = 1;
 };
 
+/// The generator's offset with LayeredBxdf::coherent_seed (any constant).
+constexpr uint64_t kCoherentOffset = 0x5bd1e9955bd1e995ull;
+
 /// Transmittance of the unit-extinction slab over a vertical distance dz along w (pbrt-v4
 /// LayeredBxDF::Tr): exp(-|dz / w.z|), 1 for a vanishing distance.
 float tr(float dz, Vec3f w) {
@@ -165,7 +168,8 @@ Rgb LayeredBxdf<Top, Bottom, kTwoSided>::f(Vec3f wo, Vec3f wi, TransportMode mod
     if (same)
         f = enter.f(wo, wi, mode) * float(n_samples);
 
-    Pcg32 rng(hash_dir(wo), hash_dir(wi));
+    Pcg32 rng(coherent_seed ? coherent_seed : hash_dir(wo),
+              coherent_seed ? kCoherentOffset : hash_dir(wi));
     for (int s = 0; s < n_samples; ++s) {
         // Into the layers from wo, and from wi with the adjoint transport mode (the light's
         // direction of travel): the two ends of the path, both refracted through an interface.
@@ -397,7 +401,8 @@ float LayeredBxdf<Top, Bottom, kTwoSided>::pdf(Vec3f wo, Vec3f wi, TransportMode
         wo = -wo;
         wi = -wi;
     }
-    Pcg32 rng(hash_dir(wi), hash_dir(wo));
+    Pcg32 rng(coherent_seed ? coherent_seed : hash_dir(wi),
+              coherent_seed ? kCoherentOffset : hash_dir(wo));
     const bool entered_top = kTwoSided || wo.z > 0.f;
     const bool same = same_hemisphere(wo, wi);
 

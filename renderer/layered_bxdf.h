@@ -27,7 +27,7 @@
 //   interface (by eta^2 and a ratio of cosines), the weights do not sum to 1 and pbrt-v4's f()
 //   comes out brighter than its own Sample_f: by 9 % for a white diffuse base under a coat of
 //   roughness 0.2 (alpha 0.45), at every angle. Here the weight uses the matching density, and
-//   f and sample_f agree (tests/renderer/test_layered_bxdf.cpp). Renders lit only through
+//   f and sample_f agree (tests/renderer/test_layered_bxdf_stat.cpp). Renders lit only through
 //   sample_f (pbrt-v4 samples no uniform infinite light with MIS) are unaffected; under lights
 //   that pbrt-v4 samples its rough coats come out brighter than Tessera's.
 // sample_f(wo, uc, u): samples the entrance interface with (uc, u); a reflection is returned
@@ -40,13 +40,17 @@
 //   reflection pdf plus the transmit-reflect-transmit (TRT) term, estimated with MIS between
 //   the two interfaces' samples where neither is specular (or the transmit-transmit term for
 //   a wi on the other side), mixed with a uniform density: lerp(0.9, 1 / (4 pi), estimate),
-//   so that it is never 0 where f is not (PBRT section 14.3.2).
+//   so that it is never 0 where f is not (PBRT section 14.3.2). As in pbrt-v4 the reflection
+//   term is the reflection-only sampler's density (not scaled by the R / (R + T) with which
+//   sample_f picks it) and the TRT term ignores the refraction's change of solid angle, so the
+//   estimate is not normalised (it integrates to 1.2-2.5): it only weighs MIS.
 //
 // Each call draws its random numbers from its own PCG32 generator (O'Neill 2014) seeded with a
 // hash of its arguments (wo and wi for f and pdf, wo, uc and u for sample_f), so f, sample_f and
 // pdf are deterministic, pure functions of their arguments: the same call gives the same value
 // on any thread, and the renderer stays bit-reproducible. (pbrt-v4 also hashes its --seed into
 // the generator; here the walk does not depend on the sampler's seed.) No heap allocation.
+// `coherent_seed` replaces the hash of f's and pdf's directions by a fixed seed (see there).
 //
 // Two-sided (kTwoSided): a wo below the surface is mirrored with wi to the top side, so both
 // sides see the top interface first; one-sided, a wo below enters through the bottom
@@ -77,6 +81,13 @@ struct LayeredBxdf {
     float g = 0.f;            ///< Henyey-Greenstein asymmetry of the medium, in [-1, 1]
     int max_depth = 10;       ///< most segments of one random walk (pbrt-v4 "maxdepth")
     int n_samples = 1;        ///< random walks per f() and pdf() estimate (pbrt-v4 "nsamples")
+    /// 0 (the default, pbrt-v4's behaviour): f() and pdf() seed their walks with a hash of the
+    /// directions, so neighbouring shading points get independent estimates (noise). Nonzero:
+    /// every call draws its walks from this seed alone, which makes f() and pdf() smooth
+    /// functions of the directions: one fixed set of walks, whose error is a fixed pattern
+    /// instead of noise (the deterministic Whitted integrator shades with it). Not a pbrt-v4
+    /// parameter; sample_f always hashes its arguments.
+    uint32_t coherent_seed = 0;
 
     LayeredBxdf() = default;
     /// pbrt-v4's constructor: thickness is raised to FLT_MIN; max_depth is clamped to >= 0 and

@@ -93,6 +93,18 @@ int specular_lobes(const Bsdf &bsdf, Vec3f wo_world, SpecularLobe lobes[2]) {
     return n;
 }
 
+/// The BSDF shaded on the frame of `n`: the material's Bxdf, the layered ones with a coherent
+/// seed (LayeredBxdf::coherent_seed), so that their stochastic f() shades smoothly: a preview
+/// without per-pixel noise, which the real-time plugins would read as edges.
+Bsdf shading_bsdf(Vec3f n, Bxdf b) {
+    constexpr uint32_t kSeed = 0x9e3779b9u;
+    if (auto *cd = std::get_if<CoatedDiffuseBxdf>(&b))
+        cd->coherent_seed = kSeed;
+    else if (auto *cc = std::get_if<CoatedConductorBxdf>(&b))
+        cc->coherent_seed = kSeed;
+    return Bsdf(Frame::from_z(n), b);
+}
+
 }  // namespace
 
 /// Per-sample scratch (lives on the stack of evaluate): the ray counters of Sample.
@@ -508,7 +520,7 @@ Rgb WhittedIntegrator::shade_ray(const Ray &ray_in, std::optional<SurfaceInterac
     const Vec3f ns = bsdf->frame().z;
     Vec3f n_stored = (em && !em->twosided) ? face_forward(ns, si.n) : face_forward(ns, sp.wo);
     sp.n = normalize(n_stored);  // shade() normalises the (interpolated) normal the same way
-    Bsdf shading(Frame::from_z(sp.n), bsdf->bxdf());
+    const Bsdf shading = shading_bsdf(sp.n, bsdf->bxdf());
     uint32_t bits = 0;
     out.local = local_shading(sp, &shading, &si, &bits, &tr);
     if (out.self) {
@@ -639,7 +651,7 @@ Rgb WhittedIntegrator::shade(const HitAttributes &attributes) const {
             const Bsdf shading(Frame::from_z(sp.n), Bxdf(b));
             local = local_shading(sp, &shading, nullptr, &bits, nullptr);
         } else if (std::optional<Bsdf> bsdf = material_bsdf(sp, nullptr)) {
-            Bsdf shading(Frame::from_z(sp.n), bsdf->bxdf());
+            const Bsdf shading = shading_bsdf(sp.n, bsdf->bxdf());
             local = local_shading(sp, &shading, nullptr, &bits, nullptr);
         } else {
             local = local_shading(sp, nullptr, nullptr, &bits, nullptr);

@@ -254,3 +254,28 @@ TEST_CASE("layered: the Bsdf wrapper passes pdf_is_proportional and the albedo h
     CHECK(cc.albedo_hint().r == Approx(0.5f).epsilon(1e-3));
     CHECK_FALSE(cc.has_non_specular());
 }
+
+TEST_CASE("layered: a coherent seed makes f a smooth function of the directions") {
+    // With the default seeding (a hash of the directions) two nearby directions get
+    // independent estimates; with a coherent seed the same walks, so nearly the same value.
+    CoatedDiffuseBxdf noisy = coated_diffuse(Rgb(0.7f), 0.3f);
+    CoatedDiffuseBxdf smooth = noisy;
+    smooth.coherent_seed = 7;
+    const Vec3f wo = dir_from_theta(35.f);
+    int noisy_jumps = 0;
+    for (int i = 0; i < 50; ++i) {
+        const float th = 10.f + float(i);
+        const Vec3f a = dir_from_theta(th, 200.f), b = dir_from_theta(th + 0.01f, 200.f);
+        const float fa = smooth.f(wo, a, TransportMode::Radiance).g;
+        const float fb = smooth.f(wo, b, TransportMode::Radiance).g;
+        CHECK(fb == Approx(fa).epsilon(2e-3));
+        CHECK(same_bits(smooth.f(wo, a, TransportMode::Radiance), Rgb(fa)));
+        CHECK(smooth.pdf(wo, b, TransportMode::Radiance) ==
+              Approx(smooth.pdf(wo, a, TransportMode::Radiance)).epsilon(2e-3));
+        const float na = noisy.f(wo, a, TransportMode::Radiance).g;
+        const float nb = noisy.f(wo, b, TransportMode::Radiance).g;
+        if (std::abs(na - nb) > 0.02f * std::max(na, nb))
+            ++noisy_jumps;
+    }
+    CHECK(noisy_jumps > 25);
+}
