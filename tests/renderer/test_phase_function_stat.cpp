@@ -47,18 +47,21 @@ TEST_CASE("Henyey-Greenstein: the mean cosine is -g, samples are unit with p == 
         const Vec3f wo = normalize(Vec3f(-0.5f, 0.4f, 0.2f));
         test::Chi2Rng rng(17);
         double sum = 0;
+        int bad = 0;
         const int n = 200000;
         for (int i = 0; i < n; ++i) {
             auto s = hg.sample_p(wo, rng.uniform2());
-            REQUIRE(s);
-            REQUIRE(std::abs(length(s->wi) - 1.f) < 1e-5f);
-            REQUIRE(s->p == s->pdf);
-            REQUIRE(s->pdf == Approx(hg.pdf(wo, s->wi)).epsilon(2e-3));
+            if (!s || !(std::abs(length(s->wi) - 1.f) < 1e-5f) || s->p != s->pdf ||
+                !(std::abs(s->pdf - hg.pdf(wo, s->wi)) <= 2e-3f * s->pdf)) {
+                ++bad;
+                continue;
+            }
             sum += dot(wo, s->wi);
         }
         // The asymmetry g is the mean cosine of the scattering angle, here between -wo and wi.
         // Standard error <= 1 / sqrt(3 n) = 1.3e-3: 4 sigma.
         INFO("g " << g);
+        CHECK(bad == 0);
         CHECK(std::abs(sum / n + g) < 5e-3);
     }
 }
