@@ -27,11 +27,21 @@
 //                   "float roughness" 0, "uroughness"/"vroughness", "bool remaproughness" true
 //                                                              -> DielectricBxdf
 //   "coateddiffuse":"spectrum reflectance" 0.5, "float roughness" 0, "uroughness"/"vroughness",
-//                   "float thickness" 0.01, "float eta" 1.5, "spectrum albedo" 0, "float g" 0,
-//                   "integer maxdepth" 10, "integer nsamples" 1, "bool twosided" true,
-//                   "bool remaproughness" true               -> CoatedDiffuseBxdf
-//                   (maxdepth, nsamples and g only affect pbrt's stochastic evaluation; the
-//                   closed-form model below has no use for them.)
+//                   "float thickness" 0.01, "float eta" 1.5 (0 means 1), "spectrum albedo" 0,
+//                   "float g" 0 (clamped to [-1, 1]), "integer maxdepth" 10,
+//                   "integer nsamples" 1, "bool remaproughness" true
+//                                     -> CoatedDiffuseBxdf (LayeredBxdf: dielectric over diffuse)
+//   "coatedconductor": "float interface.eta" 1.5 (0 means 1), "interface.roughness" 0,
+//                   "interface.uroughness"/"interface.vroughness"; "spectrum conductor.eta"
+//                   metal-Cu-eta and "conductor.k" metal-Cu-k, or "spectrum reflectance" r
+//                   (eta 1, k as for "conductor"), both divided by the interface's eta;
+//                   "conductor.roughness" 0, "conductor.uroughness"/"conductor.vroughness";
+//                   "float thickness" 0.01, "spectrum albedo" 0, "float g" 0, "integer
+//                   maxdepth" 10, "integer nsamples" 1, "bool remaproughness" true
+//                                  -> CoatedConductorBxdf (LayeredBxdf: dielectric over metal)
+// Both coated materials are pbrt-v4's stochastic layered BSDF (renderer/layered_bxdf.h): f()
+// and pdf() are Monte Carlo estimates, deterministic for given directions, and sample_f's pdf
+// is only proportional to the density (BsdfSample::pdf_is_proportional).
 // Roughness is remapped with alpha = sqrt(roughness) when remaproughness is true, else used as
 // alpha directly. Alphas below 1e-3 give the specular (delta) code paths.
 //
@@ -42,48 +52,23 @@
 #include <optional>
 #include <variant>
 
+#include "renderer/bxdf_types.h"
+#include "renderer/layered_bxdf.h"
 #include "renderer/microfacet.h"
 #include "sampling/vecmath.h"
 #include "sampling/warp.h"
 
 namespace tessera {
 
-/// Kinds of lobe; a Bxdf's flags() is a union of these bits.
-enum BxdfFlags : uint8_t {
-    kBxdfUnset = 0,
-    kBxdfReflection = 1,
-    kBxdfTransmission = 2,
-    kBxdfDiffuse = 4,
-    kBxdfGlossy = 8,
-    kBxdfSpecular = 16,
-};
-
-/// What a path carries: radiance (camera paths) or importance (light paths). Only dielectric
-/// transmission differs (the 1/eta^2 radiance scaling applies in Radiance mode only).
-enum class TransportMode { Radiance, Importance };
-
-/// Result of sampling a Bsdf. `f` excludes the cosine; `pdf` is per solid angle (or the discrete
-/// lobe probability for specular samples); `eta` is the relative IOR of a transmission, else 1.
-struct BsdfSample {
-    Rgb f;
-    Vec3f wi;
-    float pdf = 0.f;
-    uint8_t flags = kBxdfUnset;
-    float eta = 1.f;
-    bool pdf_is_proportional = false;  ///< always false here (kept for pbrt-v4 parity)
-
-    bool is_specular() const { return flags & kBxdfSpecular; }
-    bool is_transmission() const { return flags & kBxdfTransmission; }
-    bool is_reflection() const { return flags & kBxdfReflection; }
-};
-
 /// Lambertian reflection f = reflectance / pi in the hemisphere of wo; cosine-weighted sampling.
+/// Reflection only: restricted to kReflTransTransmission it samples nothing (pdf 0).
 struct DiffuseBxdf {
     Rgb reflectance{0.5f};  ///< hemispherical reflectance in [0, 1] per channel
 
     Rgb f(Vec3f wo, Vec3f wi, TransportMode mode) const;
-    std::optional<BsdfSample> sample_f(Vec3f wo, float uc, Vec2f u, TransportMode mode) const;
-    float pdf(Vec3f wo, Vec3f wi, TransportMode mode) const;
+    std::optional<BsdfSample> sample_f(Vec3f wo, float uc, Vec2f u, TransportMode mode,
+                                       BxdfReflTrans lobes = kReflTransAll) const;
+    float pdf(Vec3f wo, Vec3f wi, TransportMode mode, BxdfReflTrans lobes = kReflTransAll) const;
     uint8_t flags() const;
 };
 
@@ -103,15 +88,17 @@ struct DiffuseTransmissionBxdf {
 /// Metal: Torrance-Sparrow microfacet reflection (Torrance & Sparrow 1967; Walter et al. 2007)
 /// with the GGX distribution and the conductor Fresnel term per RGB channel
 /// (f = D(wm) F(wo.wm) G(wo,wi) / (4 cos_o cos_i)); a perfect mirror when effectively smooth.
-/// Sampled with visible normals (Heitz 2018). Reflection only, in the hemisphere of wo.
+/// Sampled with visible normals (Heitz 2018). Reflection only, in the hemisphere of wo:
+/// restricted to kReflTransTransmission it samples nothing (pdf 0).
 struct ConductorBxdf {
     TrowbridgeReitz distrib;
     Rgb eta{1.f};  ///< real part of the IOR relative to the outside medium, per channel
     Rgb k{0.f};    ///< absorption coefficient (imaginary part), per channel
 
     Rgb f(Vec3f wo, Vec3f wi, TransportMode mode) const;
-    std::optional<BsdfSample> sample_f(Vec3f wo, float uc, Vec2f u, TransportMode mode) const;
-    float pdf(Vec3f wo, Vec3f wi, TransportMode mode) const;
+    std::optional<BsdfSample> sample_f(Vec3f wo, float uc, Vec2f u, TransportMode mode,
+                                       BxdfReflTrans lobes = kReflTransAll) const;
+    float pdf(Vec3f wo, Vec3f wi, TransportMode mode, BxdfReflTrans lobes = kReflTransAll) const;
     uint8_t flags() const;
 };
 
@@ -124,13 +111,18 @@ Rgb conductor_k_from_reflectance(Rgb r);
 /// effectively smooth, else the rough GGX model of Walter et al. 2007 with the generalized
 /// half vector, visible-normal sampling and a reflect/refract choice with probability R / (R+T)
 /// (PBRT 4th ed., section 9.7). eta == 1 means no interface: pure specular pass-through.
+/// `lobes` restricts sampling to reflection or transmission (pbrt-v4's BxDFReflTransFlags):
+/// the lobe left is then chosen with probability 1 instead of R / (R + T) or T / (R + T), for
+/// the smooth and the rough interface alike, and pdf() is that of the restricted sampler.
+/// Unrestricted calls (kReflTransAll) compute exactly what they always did.
 struct DielectricBxdf {
     float eta = 1.5f;
     TrowbridgeReitz distrib;
 
     Rgb f(Vec3f wo, Vec3f wi, TransportMode mode) const;
-    std::optional<BsdfSample> sample_f(Vec3f wo, float uc, Vec2f u, TransportMode mode) const;
-    float pdf(Vec3f wo, Vec3f wi, TransportMode mode) const;
+    std::optional<BsdfSample> sample_f(Vec3f wo, float uc, Vec2f u, TransportMode mode,
+                                       BxdfReflTrans lobes = kReflTransAll) const;
+    float pdf(Vec3f wo, Vec3f wi, TransportMode mode, BxdfReflTrans lobes = kReflTransAll) const;
     uint8_t flags() const;
 };
 
@@ -147,93 +139,15 @@ struct ThinDielectricBxdf {
     uint8_t flags() const;
 };
 
-/// pbrt-v4 "coateddiffuse": a dielectric coat (IOR eta, GGX roughness) over a Lambertian base
-/// with an absorbing layer of the given thickness in between.
-///
-/// NOTE: pbrt-v4 evaluates this stochastically (LayeredBxDF random walk, Guo et al. 2018,
-/// "Position-Free Monte Carlo Simulation for Arbitrary Layered BSDFs"). Here it is the
-/// deterministic closed-form layered model of Weidlich & Wilkie 2007 ("Arbitrarily Layered
-/// Micro-Facet Surfaces") and Kelemen & Szirmay-Kalos 2001, as in Mitsuba's "plastic":
-///   f = f_coat(wo, wi) + f_base(wo, wi), with
-///   f_coat = the GGX dielectric reflection lobe of the coat (a delta lobe of weight F(cos_o)
-///            when smooth),
-///   f_base = rho T(wo) T(wi) A(wo) A(wi) / (pi eta^2 (1 - rho Fdr_int a^2)),
-/// where T(w) = 1 - F(cos w) is the Fresnel transmittance of the (macro) interface, Fdr_int the
-/// coat's internal diffuse (cosine-averaged) Fresnel reflectance, 1 - Fdr_int = (1 - Fdr_ext) /
-/// eta^2, and the factor 1/(1 - rho Fdr_int a^2) sums the light bouncing between base and coat.
-/// Absorption: pbrt's layer has unit extinction per unit thickness; here the absorbing part
-/// sigma_a = 1 - albedo attenuates the refracted ray A(w) = exp(-sigma_a thickness / cos_t(w))
-/// and each internal diffuse round trip by a^2, a = exp(-2 sigma_a thickness); the scattering
-/// part (albedo, g) is treated as forward scattering that neither absorbs nor redirects.
-/// The model conserves energy (the base term's albedo is at most T(wo)) and is reciprocal.
-/// It is two-sided like pbrt's (wo below the surface mirrors both directions); no transmission.
-/// Sampling: the coat lobe (visible normals, or the delta) with probability p_coat from the
-/// estimated Fresnel weight against the base's weight, else the cosine-weighted hemisphere;
-/// pdf() is the matching mixture density.
-/// Differences from pbrt-v4: no multiple scattering inside a rough coat, the base seen through a
-/// rough coat is not blurred by it, and the medium scattering (albedo, g) is approximated.
-struct CoatedDiffuseBxdf {
-    Rgb reflectance{0.5f};  ///< base diffuse reflectance
-    float eta = 1.5f;       ///< coat IOR relative to the outside (values < 1 are inverted)
-    TrowbridgeReitz distrib;
-    float thickness = 0.01f;  ///< layer thickness in units of the layer's mean free path
-    Rgb albedo{0.f};          ///< single-scattering albedo of the layer medium
-    float g = 0.f;            ///< Henyey-Greenstein asymmetry (unused, see above)
-    float fdr_int = 0.f;      ///< internal diffuse Fresnel reflectance (set by the constructor)
-
-    CoatedDiffuseBxdf() : CoatedDiffuseBxdf(Rgb(0.5f), 1.5f, TrowbridgeReitz(0.f, 0.f)) {}
-    CoatedDiffuseBxdf(Rgb reflectance, float eta, TrowbridgeReitz distrib, float thickness = 0.01f,
-                      Rgb albedo = Rgb(0.f), float g = 0.f);
-
-    Rgb f(Vec3f wo, Vec3f wi, TransportMode mode) const;
-    std::optional<BsdfSample> sample_f(Vec3f wo, float uc, Vec2f u, TransportMode mode) const;
-    float pdf(Vec3f wo, Vec3f wi, TransportMode mode) const;
-    uint8_t flags() const;
-
-    /// Probability of sampling the coat lobe for outgoing direction wo (local, wo.z > 0).
-    float coat_probability(Vec3f wo) const;
-
-  private:
-    Rgb base(Vec3f wo, Vec3f wi) const;
-    Rgb coat_f(Vec3f wo, Vec3f wi) const;
-    float coat_pdf(Vec3f wo, Vec3f wi) const;
-};
-
-/// pbrt-v4 "coatedconductor": a dielectric coat (IOR eta, GGX roughness `coat`) over a conductor
-/// (`base`, its complex IOR relative to the coat: pbrt-v4 divides the conductor's eta and k by
-/// the coat's), with an absorbing layer between them.
-///
-/// NOTE: pbrt-v4 evaluates this stochastically (LayeredBxDF). Here it is closed-form, like
-/// CoatedDiffuseBxdf:
-///   f = f_coat(wo, wi) + T(wo) T(wi) A f_base(wo', wi') / (eta^2 (1 - rho))
-/// where wo', wi' are wo, wi refracted into the coat (Snell's law, tangential components / eta),
-/// T = 1 - F the coat's Fresnel transmittance, A = exp(-absorb (1/cos wo' + 1/cos wi')) the
-/// layer's absorption (absorb = thickness (1 - albedo), as for coateddiffuse), f_base the
-/// conductor's Torrance-Sparrow BRDF inside the coat, and 1 / (1 - rho) the light bounced
-/// between base and coat: rho = F_b(wo') A_pass(wo') (1 - E), E the fraction of the base's lobe
-/// from wo' that crosses the coat (1 - internal Fresnel, 0 under total internal reflection;
-/// tabulated over roughness, angle and eta). With both layers smooth this is exact (one mirror
-/// lobe of weight F + T^2 F_b A / (1 - F F_b A)); with rough layers the returning light is
-/// assumed to leave in the base's lobe, which conserves energy (within the lobe's own masking
-/// loss) but is not reciprocal (rho is wo's), and the coat's roughness does not blur the base.
-/// Two-sided like pbrt-v4's, no transmission.
-/// Sampling: the coat's lobe (or its mirror) with probability p_coat from the Fresnel weights,
-/// else the base's visible normals inside the coat, refracted out (a direction that cannot
-/// leave the coat fails).
-struct CoatedConductorBxdf {
-    float eta = 1.5f;      ///< coat IOR (values < 1 are inverted; 1: no coat)
-    TrowbridgeReitz coat;  ///< the coat's roughness
-    ConductorBxdf base;    ///< the metal, eta and k relative to the coat
-    Rgb absorb{0.01f};     ///< thickness (1 - albedo) per channel
-
-    Rgb f(Vec3f wo, Vec3f wi, TransportMode mode) const;
-    std::optional<BsdfSample> sample_f(Vec3f wo, float uc, Vec2f u, TransportMode mode) const;
-    float pdf(Vec3f wo, Vec3f wi, TransportMode mode) const;
-    uint8_t flags() const;
-    /// Probability of sampling the coat for wo (local, wo.z > 0).
-    float coat_probability(Vec3f wo) const;
-};
-
+/// pbrt-v4 "coateddiffuse" (CoatedDiffuseBxDF): a dielectric coat (DielectricBxdf, its IOR and
+/// GGX roughness) over a Lambertian base (DiffuseBxdf), a slab of medium between them,
+/// evaluated by pbrt-v4's random walk (LayeredBxdf, renderer/layered_bxdf.h). Two-sided.
+using CoatedDiffuseBxdf = LayeredBxdf<DielectricBxdf, DiffuseBxdf, true>;
+/// pbrt-v4 "coatedconductor" (CoatedConductorBxDF): a dielectric coat over a conductor whose
+/// eta and k are relative to the coat (the material divides them by the coat's IOR), likewise.
+using CoatedConductorBxdf = LayeredBxdf<DielectricBxdf, ConductorBxdf, true>;
+extern template struct LayeredBxdf<DielectricBxdf, DiffuseBxdf, true>;
+extern template struct LayeredBxdf<DielectricBxdf, ConductorBxdf, true>;
 /// pbrt-v4 "hair": the scattering model of Chiang, Bitterli, Tappan and Burley 2016 ("A
 /// Practical and Controllable Hair and Fur Model for Production Path Tracing"), as pbrt-v4's
 /// HairBxDF implements it (PBRT 4th ed., section 9.9), with RGB absorption instead of spectral.
@@ -274,10 +188,6 @@ struct HairBxdf {
     /// after multiple scattering in a fiber of azimuthal roughness beta_n.
     static Rgb sigma_a_from_reflectance(Rgb c, float beta_n);
 };
-
-/// Cosine-weighted hemispherical average of the dielectric Fresnel reflectance seen from the
-/// outside, Fdr_ext(eta) = 2 int_0^1 F(mu, eta) mu dmu, for eta >= 1 (tabulated once; thread-safe).
-float fresnel_diffuse_reflectance(float eta);
 
 /// A Lambertian BSDF with its shading frame, in world space: what Bsdf does for a DiffuseBxdf,
 /// without the variant. Equal to the generic DiffuseBxdf code (which normalises the local

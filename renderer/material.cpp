@@ -153,19 +153,54 @@ class ThinDielectricMaterial final : public Material {
     float eta_;
 };
 
+/// The random walk's controls of pbrt-v4's coated materials ("maxdepth" 10, "nsamples" 1),
+/// read once by the material's Create() branch below.
+struct LayerWalk {
+    int max_depth = 10;
+    int n_samples = 1;
+
+    static LayerWalk from(const ParamSet &ps, const FileLoc &loc) {
+        LayerWalk w;
+        w.max_depth = ps.get_int("maxdepth", 10);
+        w.n_samples = ps.get_int("nsamples", 1);
+        if (w.max_depth < 0) {
+            warn(loc, "\"maxdepth\" " + std::to_string(w.max_depth) + " is negative; using 0");
+            w.max_depth = 0;
+        }
+        if (w.n_samples < 1) {
+            warn(loc, "\"nsamples\" " + std::to_string(w.n_samples) + " is below 1; using 1");
+            w.n_samples = 1;
+        }
+        return w;
+    }
+};
+
+/// pbrt-v4 treats an interface IOR of 0 as 1 (no interface); a non-finite one too, here.
+float interface_eta(float eta) {
+    return eta != 0.f && std::isfinite(eta) ? eta : 1.f;
+}
+
+/// pbrt-v4 "coateddiffuse" (CoatedDiffuseMaterial::GetBxDF): a DielectricBxdf coat over a
+/// DiffuseBxdf in a CoatedDiffuseBxdf, reflectance and albedo clamped to [0, 1], g to [-1, 1].
 class CoatedDiffuseMaterial final : public Material {
   public:
     CoatedDiffuseMaterial(const SpectrumTexture *reflectance, const SpectrumTexture *albedo,
                           const FloatTexture *thickness, const FloatTexture *g, float eta,
-                          Roughness rough)
-        : reflectance_(reflectance), albedo_(albedo), thickness_(thickness), g_(g), eta_(eta),
-          rough_(rough) {}
+                          Roughness rough, LayerWalk walk)
+        : reflectance_(reflectance),
+          albedo_(albedo),
+          thickness_(thickness),
+          g_(g),
+          eta_(interface_eta(eta)),
+          rough_(rough),
+          walk_(walk) {}
     std::optional<Bsdf> get_bsdf(const SurfaceInteraction &si,
                                  const TextureEvalContext &tc) const override {
-        CoatedDiffuseBxdf b(DiffuseMaterial::clamp_unit(reflectance_->evaluate(tc)), eta_,
-                            rough_.eval(tc), thickness_->evaluate(tc),
+        CoatedDiffuseBxdf b(DielectricBxdf{eta_, rough_.eval(tc)},
+                            DiffuseBxdf{DiffuseMaterial::clamp_unit(reflectance_->evaluate(tc))},
+                            thickness_->evaluate(tc),
                             DiffuseMaterial::clamp_unit(albedo_->evaluate(tc)),
-                            g_->evaluate(tc));
+                            clamp(g_->evaluate(tc), -1.f, 1.f), walk_.max_depth, walk_.n_samples);
         return Bsdf(frame(si, tc), b);
     }
     uint8_t possible_flags() const override {
@@ -182,6 +217,7 @@ class CoatedDiffuseMaterial final : public Material {
     const FloatTexture *thickness_, *g_;
     float eta_;
     Roughness rough_;
+    LayerWalk walk_;
 };
 
 /// pbrt-v4 "hair" (HairMaterial): a HairBxdf whose absorption comes from "sigma_a", else from
@@ -257,31 +293,28 @@ class DiffuseTransmissionMaterial final : public Material {
     float scale_;
 };
 
-/// pbrt-v4 "coatedconductor" (CoatedConductorBxdf): the conductor's eta and k (or the k of a
-/// "reflectance", with eta 1) are divided by the coat's IOR, as pbrt-v4 does.
+/// pbrt-v4 "coatedconductor" (CoatedConductorMaterial::GetBxDF): a DielectricBxdf coat over a
+/// ConductorBxdf in a CoatedConductorBxdf. The conductor's eta and k (or, for a "reflectance",
+/// eta 1 and the k that gives it) are divided by the coat's IOR, as pbrt-v4 does: the metal
+/// sits in the coat, not in air.
 class CoatedConductorMaterial final : public Material {
   public:
     CoatedConductorMaterial(float coat_eta, Roughness coat_rough, const SpectrumTexture *eta,
                             const SpectrumTexture *k, const SpectrumTexture *reflectance,
                             Roughness base_rough, const FloatTexture *thickness,
-                            const SpectrumTexture *albedo)
-        : coat_eta_(coat_eta),
+                            const SpectrumTexture *albedo, const FloatTexture *g, LayerWalk walk)
+        : coat_eta_(interface_eta(coat_eta)),
           coat_rough_(coat_rough),
           eta_(eta),
           k_(k),
           reflectance_(reflectance),
           base_rough_(base_rough),
           thickness_(thickness),
-          albedo_(albedo) {}
+          albedo_(albedo),
+          g_(g),
+          walk_(walk) {}
     std::optional<Bsdf> get_bsdf(const SurfaceInteraction &si,
                                  const TextureEvalContext &tc) const override {
-        CoatedConductorBxdf b;
-        // pbrt-v4 treats 0 as 1; a coat below 1 is inverted, as for coateddiffuse.
-        float ieta = coat_eta_ > 0.f && std::isfinite(coat_eta_) ? coat_eta_ : 1.f;
-        if (ieta < 1.f)
-            ieta = 1.f / ieta;
-        b.eta = ieta;
-        b.coat = coat_rough_.eval(tc);
         Rgb ce(1.f), ck;
         if (reflectance_) {
             ck = conductor_k_from_reflectance(reflectance_->evaluate(tc));
@@ -289,20 +322,19 @@ class CoatedConductorMaterial final : public Material {
             ce = eta_->evaluate(tc);
             ck = k_->evaluate(tc);
         }
-        b.base.eta = ce / ieta;
-        b.base.k = ck / ieta;
-        b.base.distrib = base_rough_.eval(tc);
-        float thick = std::max(0.f, thickness_->evaluate(tc));
-        Rgb albedo = DiffuseMaterial::clamp_unit(albedo_->evaluate(tc));
-        b.absorb = (Rgb(1.f) - albedo) * thick;
+        ConductorBxdf base{base_rough_.eval(tc), ce / coat_eta_, ck / coat_eta_};
+        CoatedConductorBxdf b(DielectricBxdf{coat_eta_, coat_rough_.eval(tc)}, base,
+                              thickness_->evaluate(tc),
+                              DiffuseMaterial::clamp_unit(albedo_->evaluate(tc)),
+                              clamp(g_->evaluate(tc), -1.f, 1.f), walk_.max_depth, walk_.n_samples);
         return Bsdf(frame(si, tc), b);
     }
     uint8_t possible_flags() const override {
-        return kBxdfReflection | kBxdfGlossy | kBxdfSpecular;
+        return kBxdfReflection | kBxdfDiffuse | kBxdfGlossy | kBxdfSpecular;
     }
     bool reads_texture() const override {
         return coat_rough_.varying() || varying(eta_) || varying(k_) || varying(reflectance_) ||
-               base_rough_.varying() || varying(thickness_) || varying(albedo_);
+               base_rough_.varying() || varying(thickness_) || varying(albedo_) || varying(g_);
     }
     std::string describe() const override { return "coatedconductor"; }
 
@@ -313,6 +345,8 @@ class CoatedConductorMaterial final : public Material {
     Roughness base_rough_;
     const FloatTexture *thickness_;
     const SpectrumTexture *albedo_;
+    const FloatTexture *g_;
+    LayerWalk walk_;
 };
 
 class InterfaceMaterial final : public Material {
@@ -531,11 +565,8 @@ int MaterialSet::build(const std::string &name, const std::map<std::string, Mate
 
     if (type == "coatedconductor") {
         // pbrt-v4 CoatedConductorMaterial::Create: "interface.*" for the coat, "conductor.*" or
-        // "reflectance" for the metal, "thickness" 0.01 and "albedo" 0 for the layer. "g",
-        // "maxdepth" and "nsamples" steer pbrt's random walk: no meaning in the closed form.
-        for (const char *walk : {"g", "maxdepth", "nsamples"})
-            if (const Param *p = ps.find(walk))
-                p->used = true;
+        // "reflectance" for the metal; "thickness" 0.01, "albedo" 0 and "g" 0 for the layer's
+        // medium, "maxdepth" 10 and "nsamples" 1 for the random walk.
         const SpectrumTexture *refl = tex.spectrum_param(ps, "reflectance", std::nullopt, false);
         const SpectrumTexture *eta = nullptr, *k = nullptr;
         if (!refl) {
@@ -546,7 +577,8 @@ int MaterialSet::build(const std::string &name, const std::map<std::string, Mate
             scalar_eta(ps, d.loc, 1.5f, "interface.eta"), Roughness::from(ps, tex, "interface."),
             eta, k, refl, Roughness::from(ps, tex, "conductor."),
             tex.float_param(ps, "thickness", 0.01f),
-            tex.spectrum_param(ps, "albedo", Rgb(0.f), false));
+            tex.spectrum_param(ps, "albedo", Rgb(0.f), false), tex.float_param(ps, "g", 0.f),
+            LayerWalk::from(ps, d.loc));
     } else if (type == "diffusetransmission") {
         // pbrt-v4 DiffuseTransmissionMaterial: reflectance 0.25, transmittance 0.25, both times
         // "scale" (a float, 1) and clamped to [0, 1].
@@ -574,14 +606,12 @@ int MaterialSet::build(const std::string &name, const std::map<std::string, Mate
     } else if (type == "thindielectric") {
         m = std::make_unique<ThinDielectricMaterial>(scalar_eta(ps, d.loc, 1.5f));
     } else if (type == "coateddiffuse") {
-        // Random-walk controls of pbrt's stochastic layered BSDF: no closed-form meaning.
-        for (const char *walk : {"maxdepth", "nsamples"})
-            if (const Param *p = ps.find(walk)) p->used = true;
+        // pbrt-v4 CoatedDiffuseMaterial::Create.
         m = std::make_unique<CoatedDiffuseMaterial>(
             tex.spectrum_param(ps, "reflectance", Rgb(0.5f), false),
             tex.spectrum_param(ps, "albedo", Rgb(0.f), false),
             tex.float_param(ps, "thickness", 0.01f), tex.float_param(ps, "g", 0.f),
-            scalar_eta(ps, d.loc, 1.5f), Roughness::from(ps, tex));
+            scalar_eta(ps, d.loc, 1.5f), Roughness::from(ps, tex), LayerWalk::from(ps, d.loc));
     } else if (type == "hair") {
         // pbrt-v4 HairMaterial::Create: the first of sigma_a, a colour and the melanin
         // concentrations that is given wins; without any, brown hair (eumelanin 1.3). Newer

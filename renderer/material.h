@@ -1,8 +1,8 @@
 // pbrt-v4 materials: turn texture-evaluated parameters into a Bsdf at a shading point.
 //
 // Supported: diffuse, diffusetransmission, conductor, dielectric, thindielectric, coateddiffuse
-// and coatedconductor (closed-form layered approximations, see CoatedDiffuseBxdf and
-// CoatedConductorBxdf), hair (HairBxdf), interface (no surface: rays pass through), mix
+// and coatedconductor (pbrt-v4's stochastic layered BSDF: CoatedDiffuseBxdf, CoatedConductorBxdf,
+// renderer/layered_bxdf.h), hair (HairBxdf), interface (no surface: rays pass through), mix
 // (pbrt-v4's deterministic per-point choice). Unknown types warn with file:line and render as
 // diffuse 0.5.
 // Every material but hair honours "displacement" (bump mapping) and "normalmap" (a

@@ -333,7 +333,10 @@ PathIntegrator::PathResult PathIntegrator::trace_impl(
         std::optional<BsdfSample> bs = bsdf->sample_f(si.wo, uc, u);
         if (!bs || bs->pdf <= 0.f || bs->f.is_black()) break;
         beta *= bs->f * (absdot(bs->wi, bsdf->frame().z) / bs->pdf);
-        p_bsdf = bs->pdf_is_proportional ? bsdf->pdf(si.wo, bs->wi) : bs->pdf;
+        // A proportional pdf (the layered BSDFs) is replaced by pdf()'s density for MIS; after
+        // a specular sample MIS never reads it.
+        p_bsdf = bs->pdf_is_proportional && !bs->is_specular() ? bsdf->pdf(si.wo, bs->wi)
+                                                                : bs->pdf;
         specular_bounce = bs->is_specular();
         any_non_specular |= !specular_bounce;
         if (bs->is_transmission()) eta_scale *= sqr(bs->eta);

@@ -69,19 +69,40 @@ int specular_lobes(const Bsdf &bsdf, Vec3f wo_world, SpecularLobe lobes[2]) {
         add(mirror, Rgb(r));
         add(-wo, Rgb(tr));
     } else if (const auto *cc = std::get_if<CoatedConductorBxdf>(&b)) {
-        // Both layers as perfect mirrors: the coat's reflection plus all the base returns, one
-        // mirror lobe (what sample_f gives for smooth layers; two-sided like the BxDF).
-        CoatedConductorBxdf smooth = *cc;
-        smooth.coat = TrowbridgeReitz(0.f, 0.f);
-        smooth.base.distrib = TrowbridgeReitz(0.f, 0.f);
-        if (auto s = smooth.sample_f(wo, 0.5f, {0.5f, 0.5f}, TransportMode::Radiance))
-            add(mirror, s->f * std::abs(s->wi.z));
+        // Both layers as perfect mirrors, one mirror lobe (two-sided, like the BxDF): the
+        // coat's reflection F plus the light that crosses it, bounces between the metal (F_b
+        // at the refracted angle) and the coat's inside (F again, by reciprocity) and leaves:
+        // F + T^2 F_b A / (1 - F F_b A), A = Tr^2 of the slab's unit extinction there and back
+        // (the sum of LayeredBxdf's specular walks, without the medium's scattered light).
+        const float cos_o = std::abs(wo.z), eta = cc->top.eta;
+        const float F = eta == 1.f ? 0.f : fr_dielectric(cos_o, eta);
+        const float cos_in = safe_sqrt(1.f - (1.f - cos_o * cos_o) / (eta * eta));
+        const Rgb Fb = fr_complex(cos_in, cc->bottom.eta, cc->bottom.k);
+        const float A = std::exp(-2.f * cc->thickness / std::max(cos_in, 1e-4f));
+        Rgb w;
+        for (int c = 0; c < 3; ++c) {
+            const float den = 1.f - F * Fb[c] * A;
+            w[c] = den > 0.f ? F + sqr(1.f - F) * Fb[c] * A / den : F;
+        }
+        add(mirror, w);
     } else if (const auto *cd = std::get_if<CoatedDiffuseBxdf>(&b)) {
         // The coat's mirror reflection (two-sided, like the BxDF); its base is shaded by f().
-        if (cd->eta != 1.f)
-            add(mirror, Rgb(fr_dielectric(std::abs(wo.z), cd->eta)));
+        if (cd->top.eta != 1.f)
+            add(mirror, Rgb(fr_dielectric(std::abs(wo.z), cd->top.eta)));
     }
     return n;
+}
+
+/// The BSDF shaded on the frame of `n`: the material's Bxdf, the layered ones with a coherent
+/// seed (LayeredBxdf::coherent_seed), so that their stochastic f() shades smoothly: a preview
+/// without per-pixel noise, which the real-time plugins would read as edges.
+Bsdf shading_bsdf(Vec3f n, Bxdf b) {
+    constexpr uint32_t kSeed = 0x9e3779b9u;
+    if (auto *cd = std::get_if<CoatedDiffuseBxdf>(&b))
+        cd->coherent_seed = kSeed;
+    else if (auto *cc = std::get_if<CoatedConductorBxdf>(&b))
+        cc->coherent_seed = kSeed;
+    return Bsdf(Frame::from_z(n), b);
 }
 
 }  // namespace
@@ -499,7 +520,7 @@ Rgb WhittedIntegrator::shade_ray(const Ray &ray_in, std::optional<SurfaceInterac
     const Vec3f ns = bsdf->frame().z;
     Vec3f n_stored = (em && !em->twosided) ? face_forward(ns, si.n) : face_forward(ns, sp.wo);
     sp.n = normalize(n_stored);  // shade() normalises the (interpolated) normal the same way
-    Bsdf shading(Frame::from_z(sp.n), bsdf->bxdf());
+    const Bsdf shading = shading_bsdf(sp.n, bsdf->bxdf());
     uint32_t bits = 0;
     out.local = local_shading(sp, &shading, &si, &bits, &tr);
     if (out.self) {
@@ -630,7 +651,7 @@ Rgb WhittedIntegrator::shade(const HitAttributes &attributes) const {
             const Bsdf shading(Frame::from_z(sp.n), Bxdf(b));
             local = local_shading(sp, &shading, nullptr, &bits, nullptr);
         } else if (std::optional<Bsdf> bsdf = material_bsdf(sp, nullptr)) {
-            Bsdf shading(Frame::from_z(sp.n), bsdf->bxdf());
+            const Bsdf shading = shading_bsdf(sp.n, bsdf->bxdf());
             local = local_shading(sp, &shading, nullptr, &bits, nullptr);
         } else {
             local = local_shading(sp, nullptr, nullptr, &bits, nullptr);

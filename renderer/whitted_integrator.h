@@ -20,7 +20,12 @@
 //   the lights, as in Whitted's model); dielectrics split into reflection R and refraction
 //   (1 - R) / eta'^2 (total internal reflection: R = 1); thin dielectrics reflect R' and pass
 //   1 - R' straight through; coated diffuse = the BSDF's direct light + a perfect coat
-//   reflection weighted by its Fresnel. "mix" materials resolve to one component per material
+//   reflection weighted by its Fresnel; coated conductor = its direct light + one mirror of
+//   weight R + T^2 F_b A / (1 - R F_b A) (both layers as mirrors). The coated materials' f is
+//   pbrt-v4's stochastic layered estimate, evaluated with a coherent seed
+//   (LayeredBxdf::coherent_seed): a smooth function of the directions, so no noise, but a
+//   fixed-pattern error of the one set of walks (nsamples), and ~1 us per light and point.
+//   "mix" materials resolve to one component per material
 //   and amount: pbrt's MixMaterial hash taken at a fixed point whose threshold is 0.5, so the
 //   component with the larger weight wins (amount > 0.5 picks the second). "interface"
 //   surfaces are invisible (the ray continues).
