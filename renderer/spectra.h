@@ -9,9 +9,12 @@
 //    only normalises the colour space's illuminant of an RGBIlluminantSpectrum.)
 //  - Reflectances: the colour of the spectrum lit by D65 (the sRGB white), divided by the
 //    luminance of D65, so that a constant reflectance r gives RGB (r, r, r).
-//  - Unbounded values such as conductor eta and k: the plain average of the spectrum over three
-//    bands, blue 400-500 nm, green 500-600 nm, red 600-700 nm. Colour-matching projections of
-//    eta/k give meaningless (even negative) values, band averages keep Fresnel plausible.
+//  - Unbounded values such as conductor eta and k given as (lambda, value) tables: the plain
+//    average of the spectrum over three bands, blue 400-500 nm, green 500-600 nm, red
+//    600-700 nm. Colour-matching projections of eta/k give meaningless (even negative) values,
+//    band averages keep Fresnel plausible. pbrt-v4's named metals ("metal-Au-eta", ...) use
+//    per-channel indices fitted to pbrt-v4's own rendering of them instead (spectra.cpp,
+//    scripts/fit_named_metals.py).
 // The CIE 1931 2-degree matching functions are the CIE's table (CIE 15:2004, 5 nm steps,
 // linearly interpolated), as pbrt-v4 uses them. XYZ -> linear sRGB uses the IEC 61966-2-1
 // matrix.
