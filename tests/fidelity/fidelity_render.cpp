@@ -48,7 +48,7 @@ const fs::path kDir = fs::path(TESSERA_SOURCE_DIR) / "tests" / "fidelity";
 
 /// A scene's tolerances (expectations.txt; defaults otherwise).
 struct Expectation {
-    int spp = 128;         ///< Tessera's spp per seed
+    int spp = 64;          ///< Tessera's spp per seed
     double mean = 0.01;    ///< relative tolerance on each channel's image mean
     double block = 0.02;   ///< relative floor of a block difference that can fail
     double z = 5.0;        ///< noise multiple a block difference must exceed to fail
