@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "approx.h"
+#include "bsdf_test_util.h"
 #include "chi2.h"
 #include "renderer/bsdf.h"
 #include "renderer/microfacet.h"
@@ -14,13 +15,9 @@
 
 using namespace tessera;
 using tessera::test::Approx;
+using tessera::test::dir_from_theta;
 
 namespace {
-
-Vec3f dir_from_theta(float theta_deg, float phi_deg = 30.f) {
-    float t = radians(theta_deg), p = radians(phi_deg);
-    return {std::sin(t) * std::cos(p), std::sin(t) * std::sin(p), std::cos(t)};
-}
 
 template <typename B>
 Rgb eval_f(const B &b, Vec3f wo, Vec3f wi, TransportMode m = TransportMode::Radiance) {

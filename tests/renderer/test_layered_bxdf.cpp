@@ -6,19 +6,16 @@
 #include <cstring>
 
 #include "approx.h"
+#include "bsdf_test_util.h"
 #include "chi2.h"
 #include "renderer/bsdf.h"
 #include "sampling/warp.h"
 
 using namespace tessera;
+using tessera::test::dir_from_theta;
 using tessera::test::Approx;
 
 namespace {
-
-Vec3f dir_from_theta(float theta_deg, float phi_deg = 30.f) {
-    float t = radians(theta_deg), p = radians(phi_deg);
-    return {std::sin(t) * std::cos(p), std::sin(t) * std::sin(p), std::cos(t)};
-}
 
 bool same_bits(Rgb a, Rgb b) {
     return std::memcmp(&a, &b, sizeof a) == 0;
