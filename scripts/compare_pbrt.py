@@ -170,9 +170,14 @@ def main():
            'MiB T', 'MiB P', 'render s T', 'render s P')
     print('\t'.join(hdr), flush=True)
     for scene in scenes:
+        # The scene's folder names it (a "pbrt-v4" folder: its parent), and the file's stem
+        # too unless it is the folder's scene.pbrt / scene-v4.pbrt.
         name = os.path.basename(os.path.dirname(os.path.abspath(scene)))
         if name == 'pbrt-v4':
             name = os.path.basename(os.path.dirname(os.path.dirname(os.path.abspath(scene))))
+        stem = os.path.splitext(os.path.basename(scene))[0]
+        if stem not in ('scene', 'scene-v4'):
+            name += '-' + stem
         sdir = os.path.join(args.out, name)
         try:
             path, w, h = scaled_scene(scene, os.path.join(sdir, 'mirror'), args.scale)

@@ -281,9 +281,11 @@ TEST_CASE("families: every scene belongs to one, and every family has scenes") {
     }
     for (const char *f : kFamilies) CHECK_MESSAGE(!scenes_of(f).empty(), f);
     // Every expectation names a scene that exists.
-    for (const auto &[name, e] : read_expectations())
+    for (const auto &entry : read_expectations()) {
+        const std::string &name = entry.first;
         CHECK_MESSAGE(fs::exists(kDir / "scenes" / (name + ".pbrt")),
                       "expectations.txt names a scene that does not exist: " << name);
+    }
 }
 
 TEST_CASE("material") { check_family("material"); }
