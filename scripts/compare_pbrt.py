@@ -82,7 +82,10 @@ def scaled_scene(scene, out_dir, scale):
         v = max(8, int(round(int(m.group(3)) * scale)))
         res[m.group(2)] = v
         return f'{m.group(1)}{v}'
-    text = re.sub(r'("integer\s+([xy])resolution"\s*\[?\s*)(\d+)', repl, text)
+    # Line by line, leaving comments alone (scenes keep old resolutions in comments).
+    text = '\n'.join(line if line.lstrip().startswith('#') else
+                     re.sub(r'("integer\s+([xy])resolution"\s*\[?\s*)(\d+)', repl, line)
+                     for line in text.split('\n'))
     if len(res) != 2:
         raise SystemExit(f'compare_pbrt: {scene}: no Film xresolution/yresolution to scale')
     path = os.path.join(out_dir, 'compare-' + os.path.basename(scene))
