@@ -11,7 +11,7 @@ colour matching functions, at the angle its position gives (cos theta = sqrt(1 -
 distance r from the centre). For each of R, G and B the script then finds the complex index
 eta + i k whose Fresnel curve (pbrt-v4's FrComplex) is closest to pbrt-v4's over the disk
 (least squares over the pixels with r < 0.95, each weighted alike), and prints the table for
-renderer/spectra.cpp (kMetals) with the residuals.
+renderer/util/spectra.cpp (kMetals) with the residuals.
 
 An RGB renderer cannot reproduce a spectral Fresnel curve exactly; the fit makes the
 reflectance Tessera gives a metal the one pbrt-v4 shows at every angle, within the printed
@@ -72,7 +72,7 @@ def rms(cos_t, f, eta, k):
     return float(np.sqrt(((fr_complex(cos_t, eta, k) - f) ** 2).mean()))
 
 
-# The band averages Tessera used before (renderer/spectra.cpp's previous kMetals), to print
+# The band averages Tessera used before (renderer/util/spectra.cpp's previous kMetals), to print
 # how much the fit gains.
 BAND_AVERAGES = {
     'Ag': ((0.1363, 0.1251, 0.1501), (4.1272, 3.3368, 2.4620)),

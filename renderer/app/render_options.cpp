@@ -1,0 +1,59 @@
+// The sampler choice of `tessera render --sampler` (render_options.h).
+#include "renderer/app/render_options.h"
+
+#include <sstream>
+
+namespace tessera {
+
+std::string SamplerSpec::describe() const {
+    if (is_frame()) return plugin.describe();
+    std::ostringstream os;
+    os << name;
+    if (name == "adaptive") {
+        os << ":error=" << (error ? *error : kDefaultErrorTarget);
+        if (min_spp) os << ",min-spp=" << *min_spp;
+        os << ",max-pass-spp=" << max_pass_spp << ",split-factor=" << split_factor
+           << ",min-extent=" << min_extent;
+        // Only when given: checkpoints compare this line, and older ones do not have it.
+        if (refine)
+            os << ",refine=" << (*refine ? 1 : 0);
+        const sched::AdaptiveOptions d;  // the defaults, left out of the line
+        if (refine_factor != d.refine_factor) os << ",refine-factor=" << refine_factor;
+        if (refine_spp_ratio != d.refine_spp_ratio) os << ",refine-spp-ratio=" << refine_spp_ratio;
+        if (refine_floor_ratio != d.refine_floor_ratio)
+            os << ",refine-floor-ratio=" << refine_floor_ratio;
+        // Only when it differs from its default (on exactly when refining).
+        if (prefix_error != refine.value_or(false))
+            os << ",prefix-error=" << (prefix_error ? 1 : 0);
+    }
+    return os.str();
+}
+
+SamplerSpec parse_sampler_spec(const std::string &text) {
+    SamplerSpec spec;
+    try {
+        spec.plugin = sampling::parse_plugin_spec(text);
+    } catch (const std::invalid_argument &e) {
+        throw SceneError(std::string("--sampler:0: ") + e.what());
+    }
+    const sampling::PluginParams &p = spec.plugin.params;
+    spec.name = spec.plugin.info->name;
+    if (spec.is_frame()) return spec;
+    if (p.is_set("min-spp")) spec.min_spp = uint32_t(p.get("min-spp"));
+    spec.max_pass_spp = uint32_t(p.get("max-pass-spp"));
+    if (spec.name == "adaptive") {
+        if (p.is_set("error")) spec.error = p.get("error");
+        spec.split_factor = p.get("split-factor");
+        spec.min_extent = p.get("min-extent");
+        if (p.is_set("refine"))
+            spec.refine = p.get("refine") != 0;
+        spec.refine_factor = p.get("refine-factor");
+        spec.refine_spp_ratio = p.get("refine-spp-ratio");
+        spec.refine_floor_ratio = p.get("refine-floor-ratio");
+        spec.prefix_error = p.is_set("prefix-error") ? p.get("prefix-error") != 0
+                                                     : spec.refine.value_or(false);
+    }
+    return spec;
+}
+
+}  // namespace tessera

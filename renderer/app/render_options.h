@@ -1,0 +1,117 @@
+// What `tessera render` takes (RenderOptions, with its sampler choice SamplerSpec) and what it
+// reports (RenderReport): shared by the progressive render (render.h), the real-time loop
+// (realtime.h), `tessera converge` and the tests.
+#pragma once
+
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "renderer/util/color.h"
+#include "renderer/scene/scene.h"
+#include "sampling/pixel_sampler.h"
+#include "scheduler/adaptive_scheduler.h"
+
+namespace tessera {
+
+/// Default region error target of the adaptive sampler (Dammertz e_b; see
+/// sampling/region_tree.h). Chosen with scripts/bench_adaptive.py (now `tessera converge`).
+inline constexpr double kDefaultErrorTarget = 0.001;
+
+/// Starting region error target of a refining adaptive render with no explicit error (a time
+/// budget and no `--error` / `error=`): loose, so that the easy regions stop early and the
+/// target then falls by refine-factor each time every region is complete (see
+/// sched::AdaptiveOptions::refine_target; measured in the refinement note of the adaptive issue).
+inline constexpr double kDefaultRefineStartTarget = 0.01;
+
+/// A sampler selection: any registered plugin (sampling/pixel_sampler.h; `tessera samplers`
+/// lists them), e.g. `uniform`, `adaptive[:error=E,min-spp=N,...]` (progressive, run by the
+/// adaptive scheduler) or `jin:tau_col=0.6` (a real-time frame plugin). For the progressive
+/// samplers the fields below hold the parsed values.
+struct SamplerSpec {
+    std::string name = "adaptive";
+    /// The parsed plugin and all its parameters (defaults filled in). Empty info: "adaptive"
+    /// with defaults (a default-constructed spec).
+    sampling::PluginSpec plugin;
+    /// True for real-time frame plugins (fixed, jin, kim, fliptri, flipquad, suffern).
+    bool is_frame() const {
+        return plugin.info && plugin.info->kind == sampling::PluginKind::Frame;
+    }
+    std::optional<double> error;
+    std::optional<uint32_t> min_spp;
+    uint32_t max_pass_spp = 64;
+    double split_factor = 256;
+    /// Narrowest region a split may create, pixels. One tile: narrower leaves chase the noise
+    /// of single pixels' error estimates (salt-and-pepper sample maps; measured in the notes).
+    double min_extent = 8;
+    /// adaptive:refine=0|1; unset: off (opt-in, see apply_refinement and the note of the
+    /// adaptive issue: it helps some scenes and hurts others).
+    std::optional<bool> refine;
+    // The refinement keys default to the scheduler's own defaults (the plugin registry in
+    // sampling/pixel_sampler.cpp repeats them; a test checks that they agree).
+    // adaptive:refine-factor, refine-spp-ratio, refine-floor-ratio.
+    double refine_factor = sched::AdaptiveOptions{}.refine_factor;
+    double refine_spp_ratio = sched::AdaptiveOptions{}.refine_spp_ratio;
+    double refine_floor_ratio = sched::AdaptiveOptions{}.refine_floor_ratio;
+    /// adaptive:prefix-error=1: pixel errors compare the mean with the mean of the pixel's
+    /// first 2^k samples instead of the half buffer (sampling/adaptive_error.h); the film then
+    /// keeps prefix snapshots (keeps_prefix). Unset: on exactly when refining (refine=1).
+    bool prefix_error = false;
+    /// One line, e.g. "adaptive:error=0.002,min-spp=16".
+    std::string describe() const;
+};
+
+/// Parses "NAME[:key=value,...]" against the plugin registry. Throws SceneError
+/// ("--sampler:0: sampler NAME: ...") naming the sampler and the key for an unknown sampler or
+/// key, or a bad value.
+SamplerSpec parse_sampler_spec(const std::string &text);
+
+/// Everything `tessera render` takes on the command line.
+struct RenderOptions {
+    std::string scene;
+    std::string output;             ///< EXR path ("" : from the scene's Film "filename")
+    /// --spp (the maximum), --resolution, --seed, --max-depth, --clamp, --aov
+    SceneOverrides overrides;
+    SamplerSpec sampler;            ///< --sampler
+    std::optional<uint32_t> min_spp;   ///< --min-spp (wins over the sampler spec's)
+    std::optional<double> error;       ///< --error (wins over the sampler spec's)
+    bool deterministic = false;     ///< --deterministic: barriers between passes
+    uint32_t max_passes = 0;        ///< --max-passes (0: none)
+    uint32_t threads = 0;           ///< 0: all cores
+    double time_s = 0;              ///< 0: no time limit
+    std::string checkpoint;         ///< --checkpoint FILE ("" : only on Ctrl-C, beside the EXR)
+    double checkpoint_every = 0;    ///< --checkpoint-every SECONDS (0: at the end only)
+    std::string resume;             ///< --resume FILE
+    std::string stats_path;         ///< --stats FILE.json ("" : none)
+    bool half = false;              ///< write half-float EXR colour channels
+    bool write_png = true;
+    DisplayOptions display;         ///< --ocio-config, --view, --display, --exposure
+    bool quiet = false;             ///< no progress bar and no summary
+    /// --integrator: "path" or "whitted"; "" = path for progressive samplers, whitted for the
+    /// real-time frame plugins (they compare neighbours, so noise must not look like an edge).
+    std::string integrator;
+    uint32_t frames = 1;            ///< --frames: frames to render with a frame plugin
+    double orbit_deg = 0;           ///< --orbit: camera orbit over all frames, degrees
+    /// --no-specialize[=NAME,...]: Specialization bits (renderer/scene/specialize.h) forced onto the
+    /// general code path (benchmarks of what each specialisation saves).
+    uint32_t no_specialize = 0;
+};
+
+/// What a render produced (for the stats JSON and tests).
+struct RenderReport {
+    sched::AdaptiveStats stats;     ///< totals over all render() calls of this run
+    uint32_t passes_total = 0;      ///< absolute passes completed (resumed ones included)
+    double load_s = 0, output_s = 0;
+    std::string exr_path, png_path, checkpoint_path;
+    uint32_t width = 0, height = 0, max_spp = 0;
+    double mean_spp = 0;
+    size_t film_bytes_per_pixel = 0;  ///< Film::bytes_per_pixel() of the render's film
+    std::vector<std::string> aovs;    ///< names of the AOVs the film kept, canonical order
+    size_t peak_rss_bytes = 0;
+    // Frame plugins (real-time loop):
+    std::vector<double> frame_ms;   ///< wall time of every frame
+    double rays_per_pixel = 0;      ///< last frame: rays traced / pixels
+    double active_fraction = 0;     ///< last frame: fraction of (sub)pixels found active
+};
+
+}  // namespace tessera

@@ -1,0 +1,363 @@
+#include "renderer/integrators/path_integrator.h"
+
+#include <algorithm>
+#include <array>
+#include <cstdio>
+#include <type_traits>
+
+namespace tessera {
+
+namespace {
+
+/// Screen-space derivatives of p and (u, v) at a hit (pbrt-v4 SurfaceInteraction::
+/// ComputeDifferentials): from the camera ray's differentials at the first hit, else from the
+/// camera's approximation.
+void compute_differentials(SurfaceInteraction &si, const CameraRay *cray,
+                           const PerspectiveCamera &camera, int spp) {
+    Vec3f n = si.n;
+    bool done = false;
+    if (cray && cray->has_differentials) {
+        float dx = dot(n, cray->rx_d), dy = dot(n, cray->ry_d);
+        if (dx != 0.f && dy != 0.f) {
+            float d = -dot(n, si.p);
+            float tx = (-dot(n, cray->rx_o) - d) / dx;
+            float ty = (-dot(n, cray->ry_o) - d) / dy;
+            if (std::isfinite(tx) && std::isfinite(ty)) {
+                float scale = std::max(0.125f, 1.f / std::sqrt(float(std::max(spp, 1))));
+                si.dpdx = (cray->rx_o + cray->rx_d * tx - si.p) * scale;
+                si.dpdy = (cray->ry_o + cray->ry_d * ty - si.p) * scale;
+                done = true;
+            }
+        }
+    }
+    if (!done) camera.approximate_dp_dxy(si.p, n, spp, &si.dpdx, &si.dpdy);
+    float ata00 = dot(si.dpdu, si.dpdu), ata01 = dot(si.dpdu, si.dpdv),
+          ata11 = dot(si.dpdv, si.dpdv);
+    float inv_det = 1.f / (ata00 * ata11 - ata01 * ata01);
+    if (!std::isfinite(inv_det)) inv_det = 0.f;
+    float atb0x = dot(si.dpdu, si.dpdx), atb1x = dot(si.dpdv, si.dpdx);
+    float atb0y = dot(si.dpdu, si.dpdy), atb1y = dot(si.dpdv, si.dpdy);
+    auto c = [](float v) { return std::isfinite(v) ? clamp(v, -1e8f, 1e8f) : 0.f; };
+    si.dudx = c((ata11 * atb0x - ata01 * atb1x) * inv_det);
+    si.dvdx = c((ata00 * atb1x - ata01 * atb0x) * inv_det);
+    si.dudy = c((ata11 * atb0y - ata01 * atb1y) * inv_det);
+    si.dvdy = c((ata00 * atb1y - ata01 * atb0y) * inv_det);
+}
+
+TextureEvalContext texture_context(const SurfaceInteraction &si) {
+    TextureEvalContext tc;
+    tc.p = si.p;
+    tc.dpdx = si.dpdx;
+    tc.dpdy = si.dpdy;
+    tc.n = si.n;
+    tc.uv = si.uv;
+    tc.dudx = si.dudx;
+    tc.dudy = si.dudy;
+    tc.dvdx = si.dvdx;
+    tc.dvdy = si.dvdy;
+    return tc;
+}
+
+}  // namespace
+
+PathIntegrator::PathIntegrator(const Scene &scene, uint32_t seed, int max_depth,
+                               DirectStrategy strategy, uint32_t disabled)
+    : scene_(scene),
+      seed_(seed),
+      max_depth_(max_depth),
+      strategy_(strategy),
+      spp_hint_(scene.settings.spp),
+      spec_(used_specializations(applicable_specializations(scene), disabled)) {
+    differentials_ = !(spec_ & kSpecDifferentials);
+    cull_ = spec_ & kSpecCull;
+    if (spec_ & kSpecLambertian) {
+        lambertian_.reserve(scene.materials.size());
+        for (const auto &m : scene.materials) lambertian_.push_back(*m->constant_lambertian());
+        if (spec_ & kSpecPacket)
+            packet_meshes_ = scene.geometry->meshes_by_geom_id();
+    }
+}
+
+std::string PathIntegrator::describe() const {
+    const char *s[] = {"MIS", "light sampling only", "BSDF sampling only"};
+    char buf[256];
+    std::snprintf(buf, sizeof(buf), "path tracer, max depth %d, %s, seed %u, specialised: %s",
+                  max_depth_, s[int(strategy_)], seed_, specialization_names(spec_).c_str());
+    return buf;
+}
+
+CameraRay PathIntegrator::camera_ray(const CameraSample &cs,
+                                     sampling::SobolSampler &sampler) const {
+    sampler.start_pixel_sample(cs.px, cs.py, cs.index);
+    // Filter importance sampling: the film offset (fx, fy) in [0,1)^2 is warped through the
+    // pixel filter; the sample stays in pixel (px, py) with weight 1 (+-w for a filter with
+    // negative lobes, carried by the camera ray's weight).
+    float filter_weight = 1.f;
+    Vec2f offset = scene_.filter.sample({cs.fx, cs.fy}, &filter_weight);
+    Vec2f p_raster{float(cs.px) + 0.5f + offset.x, float(cs.py) + 0.5f + offset.y};
+    // A pinhole ignores the lens sample: skip its dimensions rather than hash them.
+    Vec2f u_lens{0.5f, 0.5f};
+    if (scene_.camera->uses_lens_sample())
+        u_lens = sampler.get_2d();
+    else
+        sampler.skip(2);
+    // Only texture filtering reads the ray differentials.
+    CameraRay r = scene_.camera->generate_ray(p_raster, u_lens, differentials_);
+    r.weight *= filter_weight;
+    return r;
+}
+
+void PathIntegrator::to_sample(const PathResult &r, Sample &s) const {
+    // pbrt-v4 RGBFilm: the sensor scale, the maxcomponentvalue clamp, then the white balance.
+    Rgb L = r.L * scene_.settings.image_scale;
+    float m = L.max_value();
+    if (m > scene_.settings.max_component)
+        L *= scene_.settings.max_component / m;
+    s.radiance = scene_.settings.balance(L);
+    s.albedo = r.albedo;
+    s.normal = r.normal;
+    s.depth = r.depth;
+    s.rays = r.rays;
+    s.shadow_rays_avoided = r.shadow_rays_avoided;
+    s.shadow_rays = 0;
+    s.first_hit.reset();
+}
+
+Sample PathIntegrator::to_sample(const PathResult &r) const {
+    Sample s;
+    to_sample(r, s);
+    return s;
+}
+
+Sample PathIntegrator::evaluate(const CameraSample &cs) const {
+    sampling::SobolSampler sampler(seed_);
+    CameraRay cray = camera_ray(cs, sampler);
+    if (cray.weight == 0.f) return to_sample(PathResult{});  // blocked by the lens system
+    PathResult r = trace(cray, sampler);
+    r.L *= cray.weight;
+    return to_sample(r);
+}
+
+void PathIntegrator::evaluate_batch(std::span<const CameraSample> samples,
+                                    std::span<Sample> out) const {
+    if (!packet_meshes_.empty() && samples.size() > 1) {
+        trace_packet(samples, out);
+        return;
+    }
+    constexpr size_t kPacket = 8;
+    for (size_t base = 0; base < samples.size(); base += kPacket) {
+        const size_t n = std::min(kPacket, samples.size() - base);
+        if (n == 1) {
+            out[base] = evaluate(samples[base]);
+            continue;
+        }
+        std::array<sampling::SobolSampler, kPacket> samplers;
+        std::array<CameraRay, kPacket> crays;
+        std::array<Ray, kPacket> rays;
+        std::array<std::optional<SurfaceInteraction>, kPacket> hits;
+        // Samples the lens system blocks trace nothing: the packet holds the others.
+        std::array<size_t, kPacket> lane;
+        size_t traced = 0;
+        for (size_t i = 0; i < n; ++i) {
+            samplers[i] = sampling::SobolSampler(seed_);
+            crays[i] = camera_ray(samples[base + i], samplers[i]);
+            if (crays[i].weight != 0.f) {
+                lane[i] = traced;
+                rays[traced++] = crays[i].ray;
+            }
+        }
+        scene_.geometry->intersect8(rays.data(), int(traced), hits.data());
+        for (size_t i = 0; i < n; ++i) {
+            if (crays[i].weight == 0.f) {
+                out[base + i] = to_sample(PathResult{});
+                continue;
+            }
+            PathResult r = trace(crays[i], samplers[i], &hits[lane[i]]);
+            r.L *= crays[i].weight;
+            out[base + i] = to_sample(r);
+        }
+    }
+}
+
+Rgb PathIntegrator::radiance(const Ray &ray, uint32_t px, uint32_t py, uint32_t index) const {
+    sampling::SobolSampler sampler(seed_);
+    sampler.start_pixel_sample(px, py, index);
+    sampler.skip(2);  // keep the dimension layout of evaluate()
+    CameraRay cray;
+    cray.ray = ray;
+    cray.has_differentials = false;
+    return trace(cray, sampler).L;
+}
+
+PathIntegrator::PathResult PathIntegrator::trace(const CameraRay &cray,
+                                                 sampling::SobolSampler &sampler,
+                                                 std::optional<SurfaceInteraction> *first) const {
+    return lambertian_.empty() ? trace_impl<false>(cray, sampler, first)
+                               : trace_impl<true>(cray, sampler, first);
+}
+
+template <bool kLambertian>
+PathIntegrator::PathResult PathIntegrator::trace_impl(
+    const CameraRay &cray, sampling::SobolSampler &sampler,
+    std::optional<SurfaceInteraction> *first) const {
+    PathResult res;
+    const Scene &sc = scene_;
+    Ray ray = cray.ray;
+    Rgb L(0.f), beta(1.f);
+    bool specular_bounce = false, any_non_specular = false;
+    float eta_scale = 1.f;
+    float p_bsdf = 1.f;  // solid-angle pdf of the last BSDF sample
+    LightSampleContext prev_ctx;
+    int depth = 0, skips = 0;
+    const bool use_nee = strategy_ != DirectStrategy::BsdfOnly;
+    const bool use_bsdf_emission = strategy_ != DirectStrategy::LightOnly;
+    const bool need_differentials = differentials_;
+    (void)any_non_specular;
+
+    while (true) {
+        // The camera ray's hit may come traced already (evaluate_batch's packets).
+        std::optional<SurfaceInteraction> traced =
+            first ? std::optional<SurfaceInteraction>() : sc.geometry->intersect(ray);
+        std::optional<SurfaceInteraction> &hit = first ? *first : traced;
+        first = nullptr;
+        ++res.rays;
+        if (!hit) {
+            // Escaped: infinite lights, MIS-weighted against light sampling.
+            for (const Light *light : sc.infinite_lights) {
+                Rgb Le = light->Le(ray.d);
+                if (Le.is_black()) continue;
+                if (depth == 0 || specular_bounce) {
+                    L += beta * Le;
+                } else if (use_bsdf_emission) {
+                    float w = 1.f;
+                    if (use_nee) {
+                        float p_l = sc.light_sampler->pmf(light) *
+                                    light->pdf_li(prev_ctx, ray.d, Vec3f(), Vec3f());
+                        w = power_heuristic(p_bsdf, p_l);
+                    }
+                    L += beta * Le * w;
+                }
+            }
+            break;
+        }
+        SurfaceInteraction &si = *hit;
+        if (depth == 0 && skips == 0) {
+            res.depth = si.t * length(ray.d);
+            res.normal = si.ns;
+        }
+        // Emission from an area light hit by this ray.
+        if (si.area_light) {
+            Rgb Le = si.area_light->L(si.p, si.n, si.uv, si.wo);
+            if (!Le.is_black()) {
+                if (depth == 0 || specular_bounce) {
+                    L += beta * Le;
+                } else if (use_bsdf_emission) {
+                    float w = 1.f;
+                    if (use_nee) {
+                        float p_l = sc.light_sampler->pmf(si.area_light) *
+                                    si.area_light->pdf_li(prev_ctx, normalize(ray.d), si.p, si.n);
+                        w = power_heuristic(p_bsdf, p_l);
+                    }
+                    L += beta * Le * w;
+                }
+            }
+        }
+        if (need_differentials)
+            compute_differentials(si, depth == 0 ? &cray : nullptr, *sc.camera, spp_hint_);
+        // The BSDF: in the Lambertian specialisation straight from the material's constant
+        // reflectance, in the frame Material::frame builds without a bump map.
+        using BsdfType = std::conditional_t<kLambertian, LambertianBsdf, Bsdf>;
+        std::optional<BsdfType> bsdf;
+        if constexpr (kLambertian) {
+            if (si.material >= 0)
+                bsdf = LambertianBsdf{Frame::from_xz(si.dpdu, si.ns),
+                                      lambertian_[size_t(si.material)]};
+        } else {
+            TextureEvalContext tc = texture_context(si);
+            if (si.material >= 0) bsdf = sc.materials[size_t(si.material)]->get_bsdf(si, tc);
+        }
+        if (!bsdf) {
+            // "interface": no surface here; continue the ray without a bounce.
+            if (++skips > 256) break;
+            ray = si.spawn_ray(ray.d);
+            continue;
+        }
+        if (depth == 0) res.albedo = bsdf->albedo_hint();
+        if (depth++ == max_depth_) break;
+
+        // Next-event estimation.
+        if (use_nee && bsdf->has_non_specular() && sc.light_sampler) {
+            float u_light = sampler.get_1d();
+            Vec2f u2 = sampler.get_2d();
+            LightSampleContext ctx{si.p, si.n};
+            if (auto sampled = sc.light_sampler->sample(u_light)) {
+                const Light *light = sampled->light;
+                bool traced = false;
+                // Without culling (the general path) a sample whose radiance or BSDF value is
+                // zero still traces its shadow ray and adds nothing.
+                if (auto ls = light->sample_li(ctx, u2);
+                    ls && (!cull_ || !ls->L.is_black()) && ls->pdf > 0) {
+                    LightType lt = light->type();
+                    const bool delta = is_delta_light(lt);
+                    float p_b = 0.f;
+                    Rgb f = (!delta && use_bsdf_emission) ? bsdf->f_pdf(si.wo, ls->wi, &p_b)
+                                                          : bsdf->f(si.wo, ls->wi);
+                    f *= absdot(ls->wi, bsdf->frame().z);
+                    if (!cull_ || !f.is_black()) {
+                        traced = true;
+                        Ray shadow = (lt == LightType::Infinite || lt == LightType::DeltaDirection)
+                                         ? si.spawn_ray(ls->wi)
+                                         : si.spawn_ray_to(ls->p_light);
+                        ++res.rays;
+                        if (!sc.geometry->occluded(shadow)) {
+                            float p_l = sampled->pmf * ls->pdf;
+                            if (delta) {
+                                L += beta * f * ls->L / p_l;
+                            } else {
+                                float w = use_bsdf_emission ? power_heuristic(p_l, p_b) : 1.f;
+                                L += beta * f * ls->L * (w / p_l);
+                            }
+                        }
+                    }
+                }
+                if (!traced) ++res.shadow_rays_avoided;
+            }
+        } else if (use_nee) {
+            // Keep the dimension layout fixed whatever the material.
+            sampler.skip(3);
+        }
+
+        // BSDF sampling for the next direction.
+        float uc = sampler.get_1d();
+        Vec2f u = sampler.get_2d();
+        std::optional<BsdfSample> bs = bsdf->sample_f(si.wo, uc, u);
+        if (!bs || bs->pdf <= 0.f || bs->f.is_black()) break;
+        beta *= bs->f * (absdot(bs->wi, bsdf->frame().z) / bs->pdf);
+        // A proportional pdf (the layered BSDFs) is replaced by pdf()'s density for MIS; after
+        // a specular sample MIS never reads it.
+        p_bsdf = bs->pdf_is_proportional && !bs->is_specular() ? bsdf->pdf(si.wo, bs->wi)
+                                                                : bs->pdf;
+        specular_bounce = bs->is_specular();
+        any_non_specular |= !specular_bounce;
+        if (bs->is_transmission()) eta_scale *= sqr(bs->eta);
+        prev_ctx = LightSampleContext{si.p, si.n};
+        ray = si.spawn_ray(bs->wi);
+
+        // Russian roulette (pbrt-v4): on throughput scaled by the squared relative IOR.
+        // The roulette dimension is always consumed, but only hashed when it is used.
+        float rr_max = (beta * eta_scale).max_value();
+        if (rr_max < 1.f && depth > 1) {
+            float q = std::max(0.f, 1.f - rr_max);
+            if (sampler.get_1d() < q)
+                break;
+            beta /= 1.f - q;
+        } else {
+            sampler.skip(1);
+        }
+        if (beta.is_black()) break;
+    }
+    res.L = L;
+    return res;
+}
+
+}  // namespace tessera
