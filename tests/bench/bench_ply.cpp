@@ -1,4 +1,4 @@
-// PLY loading speed: Tessera's reader (renderer/ply_reader.h) against assimp 5.2 on the same
+// PLY loading speed: Tessera's reader (renderer/input/ply_reader.h) against assimp 5.2 on the same
 // files, and the bare file read both start with, in MB/s of file (counter "MB": 10^6 bytes a
 // second of wall time; the files stay in the page cache, so "read" is the speed of a warm
 // disk).
@@ -28,8 +28,8 @@
 #include <string>
 #include <vector>
 
-#include "renderer/mesh_io.h"
-#include "renderer/ply_reader.h"
+#include "renderer/input/mesh_io.h"
+#include "renderer/input/ply_reader.h"
 
 #ifdef TESSERA_HAVE_ASSIMP
 #include <assimp/scene.h>

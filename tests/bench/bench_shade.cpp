@@ -16,8 +16,8 @@
 #include <string>
 #include <vector>
 
-#include "renderer/scene.h"
-#include "renderer/whitted_integrator.h"
+#include "renderer/scene/scene.h"
+#include "renderer/integrators/whitted_integrator.h"
 
 using namespace tessera;
 

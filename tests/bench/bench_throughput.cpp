@@ -22,8 +22,8 @@
 #include <string>
 #include <vector>
 
-#include "renderer/render.h"
-#include "renderer/scene.h"
+#include "renderer/app/render.h"
+#include "renderer/scene/scene.h"
 #include "sampling/film.h"
 #include "sampling/sequence.h"
 #include "sampling/warp.h"

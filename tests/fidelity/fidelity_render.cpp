@@ -35,7 +35,7 @@
 #include <vector>
 
 #include "render_test_util.h"
-#include "renderer/image_io.h"
+#include "renderer/util/image_io.h"
 #include "test_helpers.h"
 
 using namespace tessera;

@@ -17,11 +17,11 @@
 #include <string>
 #include <string_view>
 
-#include "renderer/mesh_io.h"
-#include "renderer/obj_loader.h"
-#include "renderer/ply_reader.h"
-#include "renderer/pbrt_parser.h"
-#include "renderer/scene.h"
+#include "renderer/input/mesh_io.h"
+#include "renderer/input/obj_loader.h"
+#include "renderer/input/ply_reader.h"
+#include "renderer/input/pbrt_parser.h"
+#include "renderer/scene/scene.h"
 
 namespace tessera::fuzz {
 
@@ -68,7 +68,7 @@ inline void run_pbrt(std::string_view bytes) {
 }
 
 /// Reads `bytes` as the contents of a PLY file with read_ply_mesh (Tessera's reader,
-/// renderer/ply_reader.h: what load_ply runs on the file it has read into memory). From memory,
+/// renderer/input/ply_reader.h: what load_ply runs on the file it has read into memory). From memory,
 /// so that the fuzzer spends its time in the reader rather than on writing files.
 inline void run_ply(std::string_view bytes) { read_ply_mesh(bytes, "fuzz.ply"); }
 

@@ -1,4 +1,4 @@
-// libFuzzer target: the PLY mesh loader (renderer/ply_reader.h): header, body and limits.
+// libFuzzer target: the PLY mesh loader (renderer/input/ply_reader.h): header, body and limits.
 // Built with -DTESSERA_FUZZ=ON (clang); run by scripts/run_fuzz.sh. See fuzz_entry.h.
 #include <cstddef>
 #include <cstdint>

@@ -1,4 +1,4 @@
-// Writing gzip files for the tests of gzip-compressed input (renderer/gzip_io.h).
+// Writing gzip files for the tests of gzip-compressed input (renderer/util/gzip_io.h).
 #pragma once
 
 #include <zlib.h>

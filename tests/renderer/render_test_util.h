@@ -4,10 +4,10 @@
 #include <string>
 #include <vector>
 
-#include "renderer/path_integrator.h"
-#include "renderer/pbrt_parser.h"
-#include "renderer/render.h"
-#include "renderer/scene.h"
+#include "renderer/integrators/path_integrator.h"
+#include "renderer/input/pbrt_parser.h"
+#include "renderer/app/render.h"
+#include "renderer/scene/scene.h"
 #include "sampling/film.h"
 #include "sampling/image_metrics.h"
 #include "scheduler/adaptive_scheduler.h"

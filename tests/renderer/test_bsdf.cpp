@@ -9,8 +9,8 @@
 #include "approx.h"
 #include "bsdf_test_util.h"
 #include "chi2.h"
-#include "renderer/bsdf.h"
-#include "renderer/microfacet.h"
+#include "renderer/shading/bsdf.h"
+#include "renderer/shading/microfacet.h"
 #include "sampling/warp.h"
 
 using namespace tessera;

@@ -9,7 +9,7 @@
 #include "approx.h"
 #include "bsdf_test_util.h"
 #include "chi2.h"
-#include "renderer/bsdf.h"
+#include "renderer/shading/bsdf.h"
 #include "sampling/warp.h"
 
 using namespace tessera;

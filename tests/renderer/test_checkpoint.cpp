@@ -8,9 +8,9 @@
 #include <filesystem>
 
 #include "approx.h"
-#include "renderer/checkpoint.h"
-#include "renderer/image_io.h"
-#include "renderer/scene_desc.h"
+#include "renderer/app/checkpoint.h"
+#include "renderer/util/image_io.h"
+#include "renderer/input/scene_desc.h"
 #include "test_helpers.h"
 
 using namespace tessera;

@@ -13,9 +13,9 @@
 
 #include "approx.h"
 #include "render_test_util.h"
-#include "renderer/converge.h"
-#include "renderer/image_io.h"
-#include "renderer/reference.h"
+#include "renderer/app/converge.h"
+#include "renderer/util/image_io.h"
+#include "renderer/app/reference.h"
 #include "sampling/convergence_curve.h"
 #include "sampling/image_metrics.h"
 #include "test_helpers.h"

@@ -12,7 +12,7 @@
 
 #include "approx.h"
 #include "render_test_util.h"
-#include "renderer/converge.h"
+#include "renderer/app/converge.h"
 #include "test_helpers.h"
 
 using namespace tessera;

@@ -7,7 +7,7 @@
 
 #include "approx.h"
 #include "render_test_util.h"
-#include "renderer/image_io.h"
+#include "renderer/util/image_io.h"
 #include "test_helpers.h"
 
 using namespace tessera;

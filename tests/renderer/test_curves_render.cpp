@@ -8,7 +8,7 @@
 
 #include "approx.h"
 #include "render_test_util.h"
-#include "renderer/geometry.h"
+#include "renderer/scene/geometry.h"
 
 using namespace tessera;
 

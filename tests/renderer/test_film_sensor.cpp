@@ -6,7 +6,7 @@
 
 #include "approx.h"
 #include "render_test_util.h"
-#include "renderer/spectra.h"
+#include "renderer/util/spectra.h"
 
 using namespace tessera;
 using namespace tessera::test;

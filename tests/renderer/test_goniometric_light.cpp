@@ -6,8 +6,8 @@
 
 #include "approx.h"
 #include "render_test_util.h"
-#include "renderer/image_io.h"
-#include "renderer/lights.h"
+#include "renderer/util/image_io.h"
+#include "renderer/lights/lights.h"
 #include "sampling/distribution.h"
 #include "test_helpers.h"
 

@@ -1,4 +1,4 @@
-// gzip-compressed input (renderer/gzip_io.h): exact round trips, multi-member files, plain data
+// gzip-compressed input (renderer/util/gzip_io.h): exact round trips, multi-member files, plain data
 // under a ".gz" name, and clear errors for truncated, corrupt and oversized data.
 #include <doctest/doctest.h>
 
@@ -7,7 +7,7 @@
 #include <sstream>
 
 #include "gzip_test_util.h"
-#include "renderer/gzip_io.h"
+#include "renderer/util/gzip_io.h"
 #include "test_helpers.h"
 
 using namespace tessera;

@@ -9,9 +9,9 @@
 
 #include "approx.h"
 #include "render_test_util.h"
-#include "renderer/material.h"
-#include "renderer/path_integrator.h"
-#include "renderer/whitted_integrator.h"
+#include "renderer/shading/material.h"
+#include "renderer/integrators/path_integrator.h"
+#include "renderer/integrators/whitted_integrator.h"
 
 using namespace tessera;
 

@@ -7,7 +7,7 @@
 
 #include "approx.h"
 #include "chi2.h"
-#include "renderer/bsdf.h"
+#include "renderer/shading/bsdf.h"
 #include "sampling/warp.h"
 
 using namespace tessera;

@@ -12,10 +12,10 @@
 #include <vector>
 
 #include "approx.h"
-#include "renderer/color.h"
-#include "renderer/diff.h"
-#include "renderer/image_io.h"
-#include "renderer/scene_desc.h"
+#include "renderer/util/color.h"
+#include "renderer/app/diff.h"
+#include "renderer/util/image_io.h"
+#include "renderer/input/scene_desc.h"
 #include "test_helpers.h"
 
 #include <unistd.h>

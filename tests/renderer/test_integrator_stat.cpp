@@ -8,7 +8,7 @@
 
 #include "approx.h"
 #include "render_test_util.h"
-#include "renderer/path_integrator.h"
+#include "renderer/integrators/path_integrator.h"
 #include "test_helpers.h"
 
 using namespace tessera;

@@ -1,4 +1,4 @@
-// Unit tests of the stochastic layered BSDF (renderer/layered_bxdf.h) and of the restricted
+// Unit tests of the stochastic layered BSDF (renderer/shading/layered_bxdf.h) and of the restricted
 // dielectric sampling its random walk uses: determinism, two-sidedness, flags, the cases with
 // an exact answer (a black base, no coat, an empty walk) and the Bsdf wrapper. Fast and exact;
 // the statistical properties are in test_layered_bxdf_stat.cpp.
@@ -8,7 +8,7 @@
 #include "approx.h"
 #include "bsdf_test_util.h"
 #include "chi2.h"
-#include "renderer/bsdf.h"
+#include "renderer/shading/bsdf.h"
 #include "sampling/warp.h"
 
 using namespace tessera;

@@ -1,4 +1,4 @@
-// Statistical tests of the stochastic layered BSDF (renderer/layered_bxdf.h): its estimators
+// Statistical tests of the stochastic layered BSDF (renderer/shading/layered_bxdf.h): its estimators
 // relate as pbrt-v4's do (the directional albedo from f() integrated over wi equals the mean
 // sample_f weight under a smooth coat and exceeds it under a rough one), pdf() is a usable MIS
 // density, the furnace (a white base loses only what the walk's
@@ -12,7 +12,7 @@
 #include "approx.h"
 #include "bsdf_test_util.h"
 #include "chi2.h"
-#include "renderer/bsdf.h"
+#include "renderer/shading/bsdf.h"
 #include "sampling/warp.h"
 
 using namespace tessera;

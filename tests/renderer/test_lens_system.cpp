@@ -1,4 +1,4 @@
-// The lens system of pbrt-v4's "realistic" camera (renderer/lens_system.h) against optics
+// The lens system of pbrt-v4's "realistic" camera (renderer/camera/lens_system.h) against optics
 // worked out by hand: the focal length of a thick singlet (lensmaker's equation), where the
 // focused rays meet, the exposure of a pupil-limited aperture, and the lens file reader.
 #include <doctest/doctest.h>
@@ -6,8 +6,8 @@
 #include <cmath>
 
 #include "approx.h"
-#include "renderer/lens_system.h"
-#include "renderer/scene_desc.h"
+#include "renderer/camera/lens_system.h"
+#include "renderer/input/scene_desc.h"
 #include "test_helpers.h"
 
 using namespace tessera;

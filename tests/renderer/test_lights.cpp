@@ -1,4 +1,4 @@
-// Unit tests of renderer/lights.h and renderer/light_sampler.h: analytic irradiance, pbrt-v4
+// Unit tests of renderer/lights/lights.h and renderer/lights/light_sampler.h: analytic irradiance, pbrt-v4
 // parameter semantics (defaults, power normalisation, spot falloff, directions), the equal-area
 // map, emission sidedness, and power-proportional light selection.
 #include <doctest/doctest.h>
@@ -11,8 +11,8 @@
 #include <vector>
 
 #include "approx.h"
-#include "renderer/light_sampler.h"
-#include "renderer/lights.h"
+#include "renderer/lights/light_sampler.h"
+#include "renderer/lights/lights.h"
 #include "sampling/distribution.h"
 #include "test_helpers.h"
 

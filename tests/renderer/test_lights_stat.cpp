@@ -13,7 +13,7 @@
 
 #include "approx.h"
 #include "chi2.h"
-#include "renderer/lights.h"
+#include "renderer/lights/lights.h"
 
 using namespace tessera;
 using tessera::test::Chi2Options;

@@ -1,4 +1,4 @@
-// Resource limits (renderer/limits.h): the checks made before large allocations, and the
+// Resource limits (renderer/util/limits.h): the checks made before large allocations, and the
 // parser's limits on hostile text. The command-line side (exit code 2, file:line) is covered by
 // the broken-scene corpus (tests/broken, ctest cli_broken_corpus).
 #include <doctest/doctest.h>
@@ -8,8 +8,8 @@
 #include <string>
 
 #include "render_test_util.h"
-#include "renderer/limits.h"
-#include "renderer/pbrt_parser.h"
+#include "renderer/util/limits.h"
+#include "renderer/input/pbrt_parser.h"
 #include "test_helpers.h"
 
 using namespace tessera;

@@ -5,7 +5,7 @@
 
 #include "approx.h"
 #include "render_test_util.h"
-#include "renderer/loop_subdiv.h"
+#include "renderer/input/loop_subdiv.h"
 
 using namespace tessera;
 

@@ -6,8 +6,8 @@
 
 #include "approx.h"
 #include "render_test_util.h"
-#include "renderer/scene_desc.h"
-#include "renderer/whitted_integrator.h"
+#include "renderer/input/scene_desc.h"
+#include "renderer/integrators/whitted_integrator.h"
 #include "test_helpers.h"
 
 #include <OpenImageIO/imageio.h>

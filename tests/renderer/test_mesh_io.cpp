@@ -7,8 +7,8 @@
 
 #include "approx.h"
 #include "gzip_test_util.h"
-#include "renderer/mesh_io.h"
-#include "renderer/scene_desc.h"
+#include "renderer/input/mesh_io.h"
+#include "renderer/input/scene_desc.h"
 #include "test_helpers.h"
 
 using namespace tessera;

@@ -1,4 +1,4 @@
-// pbrt-v4's procedural noise (renderer/noise.h) and the noise textures built on it: values at
+// pbrt-v4's procedural noise (renderer/util/noise.h) and the noise textures built on it: values at
 // fixed points, computed by hand-following pbrt-v4's float operations (a float32 emulation of
 // its source, independent of this code), and the properties the values must have whatever
 // their digits: zeros on the lattice, the period 256, the band limit of the footprint.
@@ -7,8 +7,8 @@
 #include <cmath>
 
 #include "approx.h"
-#include "renderer/noise.h"
-#include "renderer/texture.h"
+#include "renderer/util/noise.h"
+#include "renderer/shading/texture.h"
 #include "texture_test_util.h"
 
 using namespace tessera;

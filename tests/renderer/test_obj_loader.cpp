@@ -5,7 +5,7 @@
 #include <fstream>
 
 #include "approx.h"
-#include "renderer/obj_loader.h"
+#include "renderer/input/obj_loader.h"
 #include "test_helpers.h"
 
 using namespace tessera;

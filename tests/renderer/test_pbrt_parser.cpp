@@ -6,7 +6,7 @@
 
 #include "approx.h"
 #include "gzip_test_util.h"
-#include "renderer/pbrt_parser.h"
+#include "renderer/input/pbrt_parser.h"
 #include "test_helpers.h"
 
 using namespace tessera;

@@ -1,4 +1,4 @@
-// The Henyey-Greenstein phase function (renderer/phase_function.h): chi-square tests of its
+// The Henyey-Greenstein phase function (renderer/shading/phase_function.h): chi-square tests of its
 // sampling against its density (tests/chi2.h; fixed seeds, significance 0.01 Bonferroni-
 // corrected over the file's chi-square tests), normalisation, pbrt-v4's sign convention and
 // the clamping of g in sampling.
@@ -6,7 +6,7 @@
 
 #include "approx.h"
 #include "chi2.h"
-#include "renderer/phase_function.h"
+#include "renderer/shading/phase_function.h"
 #include "sampling/warp.h"
 
 using namespace tessera;

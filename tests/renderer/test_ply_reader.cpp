@@ -1,4 +1,4 @@
-// Tessera's PLY reader (renderer/ply_reader.h) against generated files of every layout: each
+// Tessera's PLY reader (renderer/input/ply_reader.h) against generated files of every layout: each
 // file is checked against the mesh its generator meant and against an independent reader
 // written with numpy (tests/renderer/ply_numpy_reader.py, run once for all files), value for
 // value. Then the errors, and the shared scenes' meshes.
@@ -18,10 +18,10 @@
 #include <sys/wait.h>
 
 #include "gzip_test_util.h"
-#include "renderer/gzip_io.h"
-#include "renderer/mesh_io.h"
-#include "renderer/ply_reader.h"
-#include "renderer/scene_desc.h"
+#include "renderer/util/gzip_io.h"
+#include "renderer/input/mesh_io.h"
+#include "renderer/input/ply_reader.h"
+#include "renderer/input/scene_desc.h"
 #include "test_helpers.h"
 
 using namespace tessera;

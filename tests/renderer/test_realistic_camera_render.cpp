@@ -6,8 +6,8 @@
 
 #include "approx.h"
 #include "render_test_util.h"
-#include "renderer/image_io.h"
-#include "renderer/lens_system.h"
+#include "renderer/util/image_io.h"
+#include "renderer/camera/lens_system.h"
 #include "test_helpers.h"
 
 using namespace tessera;

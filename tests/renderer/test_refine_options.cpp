@@ -1,9 +1,9 @@
-// The adaptive sampler's refinement keys and their default (renderer/render.h,
+// The adaptive sampler's refinement keys and their default (renderer/app/render.h,
 // apply_refinement): opt-in (adaptive:refine=1), starting from a loose target unless an error
 // is given.
 #include <doctest/doctest.h>
 
-#include "renderer/render.h"
+#include "renderer/app/render.h"
 
 using namespace tessera;
 

@@ -6,8 +6,8 @@
 #include <filesystem>
 #include <fstream>
 
-#include "renderer/image_io.h"
-#include "renderer/render.h"
+#include "renderer/util/image_io.h"
+#include "renderer/app/render.h"
 #include "test_helpers.h"
 
 using namespace tessera;

@@ -9,7 +9,7 @@
 
 #include "approx.h"
 #include "render_test_util.h"
-#include "renderer/scene_desc.h"
+#include "renderer/input/scene_desc.h"
 #include "test_helpers.h"
 
 using namespace tessera;

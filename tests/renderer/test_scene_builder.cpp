@@ -7,8 +7,8 @@
 
 #include "approx.h"
 #include "render_test_util.h"
-#include "renderer/image_io.h"
-#include "renderer/scene_desc.h"
+#include "renderer/util/image_io.h"
+#include "renderer/input/scene_desc.h"
 #include "test_helpers.h"
 
 using namespace tessera;

@@ -1,4 +1,4 @@
-// Specialised code paths (renderer/specialize.h, issue 7): which ones a scene gets, and that
+// Specialised code paths (renderer/scene/specialize.h, issue 7): which ones a scene gets, and that
 // each gives exactly the image of the general path while skipping work.
 #include <doctest/doctest.h>
 
@@ -6,8 +6,8 @@
 #include <stdexcept>
 
 #include "render_test_util.h"
-#include "renderer/path_integrator.h"
-#include "renderer/specialize.h"
+#include "renderer/integrators/path_integrator.h"
+#include "renderer/scene/specialize.h"
 #include "scheduler/adaptive_scheduler.h"
 #include "scheduler/camera_sample.h"
 

@@ -1,10 +1,10 @@
-// Unit tests of the spectrum -> linear sRGB conversions (renderer/spectra.h).
+// Unit tests of the spectrum -> linear sRGB conversions (renderer/util/spectra.h).
 #include <doctest/doctest.h>
 
 #include <vector>
 
 #include "approx.h"
-#include "renderer/spectra.h"
+#include "renderer/util/spectra.h"
 
 using namespace tessera;
 

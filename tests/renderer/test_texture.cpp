@@ -8,7 +8,7 @@
 #include <thread>
 
 #include "approx.h"
-#include "renderer/texture.h"
+#include "renderer/shading/texture.h"
 #include "test_helpers.h"
 #include "texture_test_util.h"
 

@@ -1,4 +1,4 @@
-// Unit tests of the deterministic Whitted integrator (renderer/whitted_integrator.h): analytic
+// Unit tests of the deterministic Whitted integrator (renderer/integrators/whitted_integrator.h): analytic
 // direct light (point, spot cone edge, distant, triangle area light), exact shadow bits, a
 // mirror's Fresnel-weighted reflection, refraction and total internal reflection in glass, the
 // depth limit with exact ray counts, the attribute-vector invariants of the real-time modes
@@ -14,8 +14,8 @@
 
 #include "approx.h"
 #include "render_test_util.h"
-#include "renderer/microfacet.h"
-#include "renderer/whitted_integrator.h"
+#include "renderer/shading/microfacet.h"
+#include "renderer/integrators/whitted_integrator.h"
 
 using namespace tessera;
 using tessera::test::scene_from_string;

@@ -13,10 +13,10 @@
 #include <string>
 #include <vector>
 
-#include "renderer/specialize.h"
+#include "renderer/scene/specialize.h"
 #include "render_test_util.h"
-#include "renderer/realtime.h"
-#include "renderer/whitted_integrator.h"
+#include "renderer/app/realtime.h"
+#include "renderer/integrators/whitted_integrator.h"
 #include "sampling/pixel_sampler.h"
 #include "scheduler/frame_scheduler.h"
 #include "scheduler/plugin_test_util.h"

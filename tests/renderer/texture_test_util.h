@@ -5,7 +5,7 @@
 #include <string>
 #include <vector>
 
-#include "renderer/scene_desc.h"
+#include "renderer/input/scene_desc.h"
 
 namespace tessera::test {
 
