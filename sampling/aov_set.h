@@ -2,7 +2,7 @@
 //
 // pbrt-v4 semantics: Film "rgb" writes RGB only, Film "gbuffer" writes the geometric AOVs
 // (albedo, normal, depth). An AOV that is not in the set costs no memory and no work in
-// Film::add_sample, and is neither written to the EXR nor to checkpoints (issue 7, "skip what a
+// Film::add_sample, and is neither written to the EXR nor to checkpoints ("what a scene does not need costs nothing": skip what a
 // scene doesn't need").
 #pragma once
 

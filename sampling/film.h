@@ -1,4 +1,4 @@
-// Per-pixel accumulation for the progressive renderer (DESIGN.md, "The data that flows", item 4).
+// Per-pixel accumulation for the progressive renderer (docs/ARCHITECTURE.md, "The data that flows", item 5).
 //
 // Each pixel keeps, in double precision, the sum of the radiance of its accepted samples and the
 // "half buffer": the sum of the accepted samples with an odd sample index (Dammertz et al. 2010,
@@ -9,7 +9,7 @@
 // (finite depth); a running mean m += (x - m) / n stays within ~sqrt(n) ulps, enough for AOVs.
 // Only the AOVs the film was built with (an AovSet, default none) are kept: each lives in its
 // own array beside the beauty array, and one that was not asked for costs no memory and no
-// work (issue 7). Beauty: 64 bytes a pixel; albedo and normal add 12 each, depth 4.
+// work (what a scene does not need costs nothing). Beauty: 64 bytes a pixel; albedo and normal add 12 each, depth 4.
 //
 // Prefix snapshots (optional, for the prefix error estimator of sampling/adaptive_error.h): a
 // film built with keep_prefix also records, per pixel, the mean of its first 2^k samples each

@@ -1,4 +1,4 @@
-// The PixelSampler plugin interface and registry (DESIGN.md, "The PixelSampler plugin").
+// The PixelSampler plugin interface and registry (docs/ARCHITECTURE.md, "The PixelSampler plugin").
 //
 // A plugin is one sampling mode, selected by name on the command line as
 // `--sampler NAME[:key=value,...]`. Two kinds:

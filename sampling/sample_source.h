@@ -1,5 +1,5 @@
 // The one callback across layers: how `sampling/` and `scheduler/` evaluate a sample without
-// knowing anything about the scene (DESIGN.md, "The data that flows").
+// knowing anything about the scene (docs/ARCHITECTURE.md, "The data that flows").
 #pragma once
 
 #include <cstdint>

@@ -14,7 +14,7 @@
 // only on the input bits above it, which is exactly a nested uniform permutation of the dyadic
 // intervals (Burley 2020, section 3; Laine and Karras 2011).
 //
-// Dimension layout (DESIGN.md, "The data that flows"):
+// Dimension layout (docs/ARCHITECTURE.md, "The data that flows"):
 //   dimensions 0 and 1  reserved for the film position inside the pixel (get_pixel_2d);
 //   dimensions >= 2     the integrator's, consumed in call order: get_1d takes one dimension,
 //                       get_2d takes two. start_pixel_sample() resets the counter to

@@ -1,7 +1,7 @@
 // Progressive adaptive tile scheduler after MoonRay (Jeffery 2019, "Global Adaptive Sampling
 // Hierarchies in Production Ray Tracing", SIGGRAPH Talks), with the error metric and region
 // hierarchy of Dammertz, Hanika, Keller, Lensch 2010 ("A Hierarchical Automatic Stopping
-// Condition for Monte Carlo Global Illumination"); see DESIGN.md, "Adaptive stopping".
+// Condition for Monte Carlo Global Illumination"); see docs/ARCHITECTURE.md, "Adaptive stopping".
 //
 // Passes. Pass 0 takes every pixel to min_spp samples (the uniform start). Each later pass
 // raises the target of every ACTIVE pixel: target(p) = target(p-1) + min(target(p-1),

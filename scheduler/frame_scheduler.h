@@ -1,5 +1,5 @@
 // Runs a frame plugin (sampling/pixel_sampler.h): each stage is a parallel job over 8x8 tiles in
-// Morton order, with a barrier after it and the plugin's serial end_stage (DESIGN.md, "The
+// Morton order, with a barrier after it and the plugin's serial end_stage (docs/ARCHITECTURE.md, "The
 // PixelSampler plugin": barrier stages). Workers draw runs of up to 8 consecutive tiles from
 // one atomic index, so tiles start in Morton order on all threads; the frame's pixels do not
 // depend on the thread count as long as the plugin writes only its own tile's pixels in

@@ -1,5 +1,5 @@
 // Square tiles over the image, visited in Morton (Z) order over the tile grid
-// (DESIGN.md, "Adaptive stopping": 8x8 tiles along a Morton curve, any image size).
+// (docs/ARCHITECTURE.md, "Adaptive stopping": 8x8 tiles along a Morton curve, any image size).
 //
 // The tile grid is ceil(w / s) x ceil(h / s) for tile size s; tiles at the right and bottom edge
 // are cut to the image. The order is that of the Morton codes of the tile coordinates (x bits at

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Equal-time relMSE of samplers over several sequence seeds (issue 3's adaptive-vs-uniform target).
+"""Equal-time relMSE of samplers over several sequence seeds (the adaptive-against-uniform comparison of the README).
 
 One `tessera converge` run per seed (every sampler for the same time budget, against one
 reference), then per sampler: the final relMSE of each seed, its ratio to the first sampler's

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Benchmark of issue 7's attribute specialisation in the real-time modes.
+"""Benchmark of the attribute specialisation in the real-time modes (renderer/scene/specialize.h).
 
 For each scene and plugin: `tessera render --sampler S --frames F --threads T` with the
 Whitted integrator collecting only what the plugin reads and the scene can have (reduced) and

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Benchmark of the real-time sampler plugins against fixed supersampling (issue 4).
+"""Benchmark of the real-time sampler plugins against fixed supersampling (the papers' tables).
 
 For each scene: a ground truth of 256 stratified samples per pixel (`fixed:spp=256`, cached),
 then every plugin and fixed 1, 4, 8, 9, 16, each rendered for --frames frames with the Whitted

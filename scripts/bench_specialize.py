@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""What each specialised code path saves (issue 7): time per sample and image difference,
+"""What each specialised code path saves (renderer/scene/specialize.h): time per sample and image difference,
 specialised against the general path forced with --no-specialize, side by side in one run.
 
 For every scene: the default render (every specialisation that applies), the general path

@@ -12,6 +12,7 @@ files, or needs a third header below both. Prints every include that breaks the 
 `file:line: includes X (layer A may not include layer B)` and exits 1; exits 0 when there is none.
 
     scripts/check_layers.py [ROOT]
+    scripts/check_layers.py --self-test   the checker finds what it must (a temporary tree)
 """
 import pathlib
 import re
@@ -37,12 +38,57 @@ def layer_of(rel):
     return None
 
 
+def self_test():
+    """Runs the check on small trees with one known fault each; 0 when every fault is found."""
+    import tempfile
+    cases = {  # file -> text, and the words the report must contain
+        'upward': ({'renderer/util/a.h': '#include "renderer/scene/b.h"\n',
+                    'renderer/scene/b.h': ''}, 'may not include layer renderer/scene'),
+        'sibling': ({'renderer/lights/a.h': '#include "renderer/camera/b.h"\n',
+                     'renderer/camera/b.h': ''}, 'may not include layer renderer/camera'),
+        'cycle': ({'renderer/input/a.h': '#include "renderer/input/b.h"\n',
+                   'renderer/input/b.cpp': '#include "renderer/input/a.h"\n',
+                   'renderer/input/b.h': ''}, 'include each other'),
+        'stray': ({'renderer/x.cpp': ''}, 'not in any layer'),
+    }
+    failed = 0
+    for name, (files, expect) in cases.items():
+        with tempfile.TemporaryDirectory() as d:
+            for rel, text in files.items():
+                path = pathlib.Path(d, rel)
+                path.parent.mkdir(parents=True, exist_ok=True)
+                path.write_text(text)
+            problems = check(pathlib.Path(d))
+            if not any(expect in p for p in problems):
+                print(f'self-test {name}: expected "{expect}", got {problems}')
+                failed += 1
+    good = check(pathlib.Path(tempfile.mkdtemp()))
+    if good:
+        print(f'self-test: an empty tree reports {good}')
+        failed += 1
+    print(f'check_layers self-test: {len(cases) + 1 - failed} of {len(cases) + 1} cases right')
+    return 1 if failed else 0
+
+
 def main():
+    if sys.argv[1:] == ['--self-test']:
+        return self_test()
     root = pathlib.Path(sys.argv[1] if len(sys.argv) > 1 else
                         pathlib.Path(__file__).resolve().parent.parent)
-    problems, checked = [], 0
+    problems = check(root)
+    for p in problems:
+        print(p)
+    print(f'check_layers: {len(problems)} includes out of order')
+    return 1 if problems else 0
+
+
+def check(root):
+    """Every problem of the tree at `root`, as "file:line: message" strings."""
+    problems = []
     uses = {}  # unit (path without extension) -> {included unit: "file:line"}
     for folder in ('sampling', 'scheduler', 'renderer'):
+        if not (root / folder).is_dir():
+            continue
         for path in sorted((root / folder).rglob('*')):
             if path.suffix not in ('.h', '.cpp'):
                 continue
@@ -55,7 +101,6 @@ def main():
                 m = INCLUDE.match(line)
                 if not m:
                     continue
-                checked += 1
                 unit, other = rel.rsplit('.', 1)[0], m.group(1).rsplit('.', 1)[0]
                 if other != unit:
                     uses.setdefault(unit, {}).setdefault(other, f'{rel}:{n}')
@@ -74,10 +119,7 @@ def main():
             if unit < other and unit in uses.get(other, {}):
                 problems.append(f'{where}: {unit} and {other} include each other '
                                 f'(also {uses[other][unit]})')
-    for p in problems:
-        print(p)
-    print(f'check_layers: {checked} includes checked, {len(problems)} out of order')
-    return 1 if problems else 0
+    return problems
 
 
 if __name__ == '__main__':

@@ -1,5 +1,5 @@
 // `tessera converge`: error against time of several progressive samplers on one scene, for the
-// same wall-time budget (DESIGN.md, "Outputs people use").
+// same wall-time budget (docs/ARCHITECTURE.md, "Outputs people use").
 //
 // Each sampler renders a fresh film for --time seconds. At N log-spaced times (first snapshot
 // --first-snapshot, default time / 32; sampling/convergence_curve.h) the render stops, the

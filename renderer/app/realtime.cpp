@@ -52,7 +52,7 @@ void run_frames(const RenderOptions &opt, Scene &scene, const SamplerSpec &sampl
         throw SceneError(std::string("--sampler:0: ") + e.what());
     }
     // The Whitted integrator collects only the attributes the plugin reads and the scene can
-    // have (issue 7), unless --no-specialize asks for the general path.
+    // have (scene/specialize.h), unless --no-specialize asks for the general path.
     std::unique_ptr<SampleSource> source;
     std::string attributes_collected = "n/a";
     if (integrator_name == "whitted") {

@@ -1,4 +1,5 @@
-// Deterministic Whitted-style ray tracer for the real-time anti-aliasing modes (issue 4).
+// Deterministic Whitted-style ray tracer for the real-time anti-aliasing modes
+// (docs/ARCHITECTURE.md, "The PixelSampler plugin").
 //
 // Whitted 1980, "An Improved Illumination Model for Shaded Display": at every hit, direct light
 // from each light with one hard shadow ray, plus perfect mirror reflection and refraction

@@ -1,4 +1,5 @@
-// Specialised code paths: what a scene does not need costs nothing (issue 7).
+// Specialised code paths: what a scene does not need costs nothing
+// (docs/ARCHITECTURE.md, "The data that flows", item 2).
 //
 // At load, SceneFeatures says what a scene has; from it the path tracer picks specialised code
 // paths. Each one gives the same image as the general path (bit for bit where stated; tests in

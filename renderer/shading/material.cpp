@@ -516,7 +516,7 @@ int MaterialSet::default_index() {
         (void)empty;
         struct Const final : SpectrumTexture {
             Rgb evaluate(const TextureEvalContext &) const override { return Rgb(0.5f); }
-            // Constant: the default material is not "textured" (it was, before issue 7).
+            // Constant: the default material is not "textured" (the specialisations of scene/specialize.h rely on it).
             std::optional<Rgb> constant_value() const override { return Rgb(0.5f); }
             std::string describe() const override { return "constant 0.5"; }
         };

@@ -1,4 +1,4 @@
-// Display images through OpenColorIO (DESIGN.md, "Outputs people use": a display PNG).
+// Display images through OpenColorIO (docs/ARCHITECTURE.md, "Outputs people use": a display PNG).
 //
 // Which OCIO config: an explicit `config_path` wins; otherwise $OCIO when set (and `use_env`);
 // otherwise a small OCIO v2 config embedded in the code (embedded_ocio_config()):

@@ -1,4 +1,4 @@
-// Robustness (DESIGN.md "Invariants worth a test each"): odd but legal scenes render finite
+// Robustness (docs/ARCHITECTURE.md, "Invariants worth a test each"): odd but legal scenes render finite
 // values without crashing, bad values are rejected with file:line, and max depth 0 / 1 give
 // exactly emission only / direct light only.
 #include <doctest/doctest.h>

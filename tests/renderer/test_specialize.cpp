@@ -1,4 +1,4 @@
-// Specialised code paths (renderer/scene/specialize.h, issue 7): which ones a scene gets, and that
+// Specialised code paths (renderer/scene/specialize.h): which ones a scene gets, and that
 // each gives exactly the image of the general path while skipping work.
 #include <doctest/doctest.h>
 

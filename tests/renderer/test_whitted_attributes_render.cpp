@@ -1,6 +1,7 @@
-// Issue 7, "skip what a scene doesn't need", for the real-time modes: the Whitted integrator
-// collects only the attribute groups the frame plugin reads (PixelSampler::attributes_used)
-// and the scene can have, and traces no shadow ray toward a light that cannot contribute.
+// "What a scene does not need costs nothing" (docs/ARCHITECTURE.md) for the real-time modes:
+// the Whitted integrator collects only the attribute groups the frame plugin reads
+// (PixelSampler::attributes_used) and the scene can have, and traces no shadow ray toward a
+// light that cannot contribute.
 //  - every plugin's frames are bit-identical with the reduced and the full (general path,
 //    WhittedOptions::specialize = false) collection, on the example scenes;
 //  - a point behind a one-sided area light or outside a spot cone costs no shadow ray;

@@ -1,7 +1,7 @@
 // Stress tests of the adaptive scheduler on synthetic sources: every image size from 1x1 to 4K,
 // 1 to 64 threads (oversubscribed on purpose), barrier-free, deterministic and uniform modes,
-// random per-tile delays. Each run checks the invariants of DESIGN.md ("Invariants worth a test
-// each"): exact per-pixel coverage (film counts == evaluations the source received, indices
+// random per-tile delays. Each run checks the invariants of docs/ARCHITECTURE.md ("Invariants
+// worth a test each"): exact per-pixel coverage (film counts == evaluations the source received, indices
 // 0..n-1 once each), no (pass, tile) visited twice, inactive pixels take no samples, region-tree
 // leaves partition their grown quadrant, the image stays finite.
 //
