@@ -7,7 +7,16 @@ find_package(TBB REQUIRED)
 find_package(embree 3 REQUIRED)
 pkg_check_modules(OIIO REQUIRED IMPORTED_TARGET OpenImageIO)
 pkg_check_modules(OCIO REQUIRED IMPORTED_TARGET OpenColorIO)
+# Debian 12's Imath export (pulled in by OpenEXR's config) lists Imath::PyImath_Python3_11, whose
+# library is in a Python package Tessera does not use; CMake's import check then prints a
+# STATUS block about the missing file in the middle of every configure. The check is only that
+# status text (the target is never linked), so status messages are muted while OpenEXR and
+# Imath are found; errors and warnings still print.
+set(_tessera_log_level "${CMAKE_MESSAGE_LOG_LEVEL}")
+set(CMAKE_MESSAGE_LOG_LEVEL NOTICE)
 find_package(OpenEXR REQUIRED)
+set(CMAKE_MESSAGE_LOG_LEVEL "${_tessera_log_level}")
+message(STATUS "Found OpenEXR ${OpenEXR_VERSION}")
 find_package(tinyobjloader REQUIRED)
 find_package(ZLIB REQUIRED)
 find_package(nlohmann_json 3 REQUIRED)

@@ -1,10 +1,12 @@
 #!/usr/bin/env bash
 # Tessera's one-step set-up for a fresh Debian 12 machine (run as root, or with sudo available).
 #
-#   scripts/setup.sh render   install dependencies, build (Release), render the example scene
-#   scripts/setup.sh test     install dependencies, build (Release), run the whole test suite
-#                             (with the quick convergence benchmark suite, ctest label report)
-#   scripts/setup.sh build    install dependencies and build only
+#   scripts/setup.sh render   install what rendering needs, build the tessera executable alone
+#                             (Release), render the example scene
+#   scripts/setup.sh test     install every dependency, build everything (Release: tessera, the
+#                             tests, the benchmarks), run the whole test suite (with the quick
+#                             convergence benchmark suite, ctest label report)
+#   scripts/setup.sh build    install every dependency and build everything
 #
 # Environment: BUILD_DIR (default build), JOBS (default: number of cores), CTEST_ARGS (extra
 # arguments for ctest, e.g. "-L unit"), SKIP_APT=1 to skip the package step, TSAN=0 to skip the
@@ -14,20 +16,33 @@
 set -euo pipefail
 
 mode="${1:-render}"
+case "$mode" in
+  render|test|build) ;;
+  *)
+    echo "usage: scripts/setup.sh [render|test|build]" >&2
+    exit 2
+    ;;
+esac
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 build="${BUILD_DIR:-$root/build}"
 jobs="${JOBS:-$(nproc)}"
 
+# What the tessera executable needs ...
 packages=(
   build-essential cmake pkg-config
   libembree-dev libtbb-dev
   libopenimageio-dev openimageio-tools libopenexr-dev libopencolorio-dev
-  libassimp-dev libtinyobjloader-dev nlohmann-json3-dev libcli11-dev zlib1g-dev
-  doctest-dev libbenchmark-dev
-  # scripts/convergence_report.py (tessera converge's report.html, the benchmark suite)
-  python3 python3-numpy python3-matplotlib
-  clang libclang-rt-dev
+  libtinyobjloader-dev nlohmann-json3-dev libcli11-dev zlib1g-dev
 )
+# ... and what the tests, the benchmarks, the reports and the sanitizer/fuzz builds add.
+if [[ "$mode" != "render" ]]; then
+  packages+=(
+    doctest-dev libbenchmark-dev libassimp-dev
+    # scripts/convergence_report.py (tessera converge's report.html, the benchmark suite)
+    python3 python3-numpy python3-matplotlib
+    clang libclang-rt-dev
+  )
+fi
 
 install_packages() {
   if [[ "${SKIP_APT:-0}" == "1" ]]; then return; fi
@@ -48,8 +63,16 @@ install_packages() {
 }
 
 configure_and_build() {
-  cmake -S "$root" -B "$build" -DCMAKE_BUILD_TYPE=Release ${CMAKE_ARGS:-}
-  cmake --build "$build" -j "$jobs"
+  if [[ "$mode" == "render" ]]; then
+    # Only the renderer: no doctest, no Google Benchmark, no test or benchmark targets.
+    cmake -S "$root" -B "$build" -DCMAKE_BUILD_TYPE=Release -DTESSERA_BUILD_TESTS=OFF \
+      -DTESSERA_BUILD_BENCHMARKS=OFF ${CMAKE_ARGS:-}
+    cmake --build "$build" -j "$jobs" --target tessera
+  else
+    cmake -S "$root" -B "$build" -DCMAKE_BUILD_TYPE=Release -DTESSERA_BUILD_TESTS=ON \
+      -DTESSERA_BUILD_BENCHMARKS=ON ${CMAKE_ARGS:-}
+    cmake --build "$build" -j "$jobs"
+  fi
 }
 
 # Wall time of each stage, for the CI log ("setup: <stage> done at <seconds> s").
@@ -58,7 +81,7 @@ stage_done() { echo "setup: $1 done at ${SECONDS} s"; }
 install_packages
 stage_done packages
 configure_and_build
-stage_done "Release build"
+if [[ "$mode" == "render" ]]; then stage_done "Release build (tessera)"; else stage_done "Release build"; fi
 
 case "$mode" in
   render)
@@ -91,8 +114,4 @@ case "$mode" in
     fi
     ;;
   build) ;;
-  *)
-    echo "usage: scripts/setup.sh [render|test|build]" >&2
-    exit 2
-    ;;
 esac
