@@ -100,6 +100,33 @@ ChannelMetric mae(const RgbImage &test, const RgbImage &ref) {
     return average(s.abs, s.n);
 }
 
+ChannelMetric rel_mse_robust(const RgbImage &test, const RgbImage &ref, double drop_fraction) {
+    check_pair(test, ref);
+    if (!(drop_fraction >= 0.0 && drop_fraction < 1.0))
+        throw std::invalid_argument("rel_mse_robust: drop fraction must be in [0, 1)");
+    const size_t n = test.pixel_count();
+    // Per pixel, the three channels' relative squared errors and their mean (the ranking key;
+    // NaN ranks as +Inf, so non-finite pixels are the first left out).
+    std::vector<std::array<double, 3>> rel(n);
+    std::vector<std::pair<double, size_t>> key(n);
+    for (size_t i = 0; i < n; ++i) {
+        double sum = 0;
+        for (int c = 0; c < 3; ++c) {
+            double v = test.data[3 * i + c], r = ref.data[3 * i + c];
+            rel[i][c] = (v - r) * (v - r) / (r * r + 0.01);
+            sum += rel[i][c];
+        }
+        key[i] = {std::isnan(sum) ? std::numeric_limits<double>::infinity() : sum, i};
+    }
+    const size_t drop = size_t(std::floor(drop_fraction * double(n)));
+    if (drop > 0)
+        std::nth_element(key.begin(), key.begin() + std::ptrdiff_t(n - drop), key.end());
+    std::array<double, 3> sums{};
+    for (size_t j = 0; j < n - drop; ++j)
+        for (int c = 0; c < 3; ++c) sums[c] += rel[key[j].second][c];
+    return average(sums, n - drop);
+}
+
 std::size_t nonfinite_count(const RgbImage &img) {
     check_image(img, "image");
     return std::size_t(std::count_if(img.data.begin(), img.data.end(),
@@ -123,6 +150,7 @@ ImageComparison compare_images(const RgbImage &test, const RgbImage &ref, double
     out.mse = average(s.sq, s.n);
     out.rmse = rmse_of(out.mse);
     out.rel_mse = average(s.rel, s.n);
+    out.rel_mse_robust = rel_mse_robust(test, ref);
     out.psnr = psnr_from(out.mse, peak);
     out.mae = average(s.abs, s.n);
     out.mean_test = channel_means(test);

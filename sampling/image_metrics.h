@@ -8,6 +8,11 @@
 //              0.01 keeps dark pixels from dominating)
 //   PSNR_c   = 10 log10(peak^2 / MSE_c) in dB (+inf when MSE_c is 0)
 //   MAE_c    = (1/N) sum |v - ref|   (mean absolute error)
+//   robust relMSE: relMSE over the pixels left when the fraction f (default 0.1%) of pixels
+//              with the largest relative error (the mean of their three channels' terms) is
+//              left out: floor(f N) pixels, NaN and Inf errors first. The adaptive sampling
+//              literature reports it this way, because on scenes with rare bright paths the
+//              plain relMSE of one render is decided by a few fireflies.
 // Sums run in double precision. Non-finite pixel values are not special-cased: they propagate.
 #pragma once
 
@@ -52,6 +57,7 @@ struct ChannelMetric {
 /// All metrics of a test image against a reference.
 struct ImageComparison {
     ChannelMetric mse, rmse, rel_mse, psnr, mae;
+    ChannelMetric rel_mse_robust;  ///< relMSE without the 0.1% largest per-pixel errors
     std::array<double, 3> mean_test{}, mean_ref{};
 };
 
@@ -62,6 +68,13 @@ ChannelMetric mse(const RgbImage &test, const RgbImage &ref);
 ChannelMetric rmse(const RgbImage &test, const RgbImage &ref);
 /// Relative MSE, (v - ref)^2 / (ref^2 + 0.01) averaged (pbrt's convention).
 ChannelMetric rel_mse(const RgbImage &test, const RgbImage &ref);
+/// The fraction of pixels the robust relMSE leaves out by default.
+inline constexpr double kRobustDropFraction = 0.001;
+/// Relative MSE without the floor(drop_fraction * N) pixels of largest relative error (see
+/// the definitions above). Throws std::invalid_argument as mse() does, and for a
+/// drop_fraction outside [0, 1). Thread-safe (pure).
+ChannelMetric rel_mse_robust(const RgbImage &test, const RgbImage &ref,
+                             double drop_fraction = kRobustDropFraction);
 /// Peak signal-to-noise ratio in dB for the given peak value; +inf where MSE is 0.
 ChannelMetric psnr(const RgbImage &test, const RgbImage &ref, double peak = 1.0);
 /// Mean absolute error, |v - ref| averaged.

@@ -51,6 +51,40 @@ TEST_CASE("relMSE uses (v - ref)^2 / (ref^2 + 0.01)") {
     CHECK(m.total == tessera::test::Approx((0.5 + 50.0 + 0.02 / 0.26) / 3));
 }
 
+TEST_CASE("robust relMSE leaves out the 0.1% largest per-pixel errors") {
+    // 2000 pixels of reference 0.3 in every channel; test 0.4 (relative error
+    // 0.01 / 0.1 = 0.1 per channel) except two fireflies (100: error ~99700) and one pixel whose
+    // green is 0.5 (0.4 / 0.1 = 0.4 in green only). floor(0.001 * 2000) = 2 pixels are left out:
+    // exactly the fireflies.
+    RgbImage ref(40, 50, 0.3f), t(40, 50, 0.4f);
+    t.at(3, 4, 0) = t.at(3, 4, 1) = t.at(3, 4, 2) = 100.f;
+    t.at(30, 40, 1) = 100.f;
+    t.at(7, 7, 1) = 0.5f;
+    const double e = 0.01 / 0.1, big = (100.0 - 0.3) * (100.0 - 0.3) / 0.1;
+    ChannelMetric r = rel_mse_robust(t, ref);
+    CHECK(r.channel[0] == tessera::test::Approx(e));
+    CHECK(r.channel[1] == tessera::test::Approx((1997 * e + 0.4) / 1998));
+    CHECK(r.channel[2] == tessera::test::Approx(e));
+    // Plain relMSE is decided by the two fireflies.
+    ChannelMetric plain = rel_mse(t, ref);
+    CHECK(plain.channel[1] == tessera::test::Approx((1997 * e + 0.4 + 2 * big) / 2000));
+    CHECK(plain.total > 100 * r.total);
+    // Dropping nothing is the plain relMSE; compare_images reports the default.
+    CHECK(rel_mse_robust(t, ref, 0.0).total == tessera::test::Approx(plain.total));
+    CHECK(compare_images(t, ref).rel_mse_robust.total == tessera::test::Approx(r.total));
+    // A NaN pixel ranks first among those left out.
+    t.at(3, 4, 0) = std::nanf("");
+    CHECK(std::isfinite(rel_mse_robust(t, ref).total));
+    CHECK(rel_mse_robust(t, ref).channel[1] == tessera::test::Approx(r.channel[1]));
+    // Under 1000 pixels nothing is left out; a fraction outside [0, 1) is an error.
+    RgbImage small_ref(10, 10, 0.3f), small(10, 10, 0.4f);
+    small.at(0, 0, 0) = 100.f;
+    CHECK(rel_mse_robust(small, small_ref).total ==
+          tessera::test::Approx(rel_mse(small, small_ref).total));
+    CHECK_THROWS_AS(rel_mse_robust(t, ref, 1.0), std::invalid_argument);
+    CHECK_THROWS_AS(rel_mse_robust(t, ref, -0.1), std::invalid_argument);
+}
+
 TEST_CASE("channel means and compare_images") {
     std::array<double, 3> mt = channel_means(test_image());
     CHECK(mt[0] == tessera::test::Approx(0.3));
