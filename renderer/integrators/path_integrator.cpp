@@ -58,6 +58,106 @@ TextureEvalContext texture_context(const SurfaceInteraction &si) {
     return tc;
 }
 
+/// What the path loop carries from one bounce to the next that MIS needs: whether the last
+/// bounce was specular, the solid-angle pdf of the last BSDF sample, where it was taken.
+struct BounceState {
+    int depth = 0;
+    bool specular_bounce = false;
+    float p_bsdf = 1.f;
+    LightSampleContext prev_ctx;
+};
+
+/// Which estimators the path tracer combines (DirectStrategy): next-event estimation, emission
+/// found by BSDF sampling, or both with MIS (power heuristic).
+struct Strategies {
+    bool nee, bsdf_emission;
+};
+
+/// Adds the radiance of the infinite lights along an escaped ray, MIS-weighted against light
+/// sampling.
+[[gnu::always_inline]] inline void add_escaped_radiance(const Scene &sc, const Ray &ray,
+                                                        const BounceState &b, Strategies st,
+                                                        Rgb beta, Rgb &L) {
+    for (const Light *light : sc.infinite_lights) {
+        Rgb Le = light->Le(ray.d);
+        if (Le.is_black()) continue;
+        if (b.depth == 0 || b.specular_bounce) {
+            L += beta * Le;
+        } else if (st.bsdf_emission) {
+            float w = 1.f;
+            if (st.nee) {
+                float p_l = sc.light_sampler->pmf(light) *
+                            light->pdf_li(b.prev_ctx, ray.d, Vec3f(), Vec3f());
+                w = power_heuristic(b.p_bsdf, p_l);
+            }
+            L += beta * Le * w;
+        }
+    }
+}
+
+/// Adds the emission of the area light the ray hit, MIS-weighted against light sampling.
+[[gnu::always_inline]] inline void add_area_emission(const Scene &sc, const Ray &ray,
+                                                     const SurfaceInteraction &si,
+                                                     const BounceState &b, Strategies st,
+                                                     Rgb beta, Rgb &L) {
+    Rgb Le = si.area_light->L(si.p, si.n, si.uv, si.wo);
+    if (Le.is_black()) return;
+    if (b.depth == 0 || b.specular_bounce) {
+        L += beta * Le;
+    } else if (st.bsdf_emission) {
+        float w = 1.f;
+        if (st.nee) {
+            float p_l = sc.light_sampler->pmf(si.area_light) *
+                        si.area_light->pdf_li(b.prev_ctx, normalize(ray.d), si.p, si.n);
+            w = power_heuristic(b.p_bsdf, p_l);
+        }
+        L += beta * Le * w;
+    }
+}
+
+/// Next-event estimation at `si`: one light sample with its shadow ray, MIS-weighted against
+/// BSDF sampling. Without culling (the general path) a sample whose radiance or BSDF value is
+/// zero still traces its shadow ray and adds nothing. Consumes 3 dimensions either way.
+template <class BsdfType>
+[[gnu::always_inline]] inline void add_direct_light(const Scene &sc, const SurfaceInteraction &si,
+                                                    const BsdfType &bsdf, Strategies st,
+                                                    bool cull, Rgb beta,
+                                                    sampling::SobolSampler &sampler, Rgb &L,
+                                                    uint32_t &rays, uint32_t &avoided) {
+    float u_light = sampler.get_1d();
+    Vec2f u2 = sampler.get_2d();
+    LightSampleContext ctx{si.p, si.n};
+    auto sampled = sc.light_sampler->sample(u_light);
+    if (!sampled) return;
+    const Light *light = sampled->light;
+    bool traced = false;
+    if (auto ls = light->sample_li(ctx, u2); ls && (!cull || !ls->L.is_black()) && ls->pdf > 0) {
+        LightType lt = light->type();
+        const bool delta = is_delta_light(lt);
+        float p_b = 0.f;
+        Rgb f = (!delta && st.bsdf_emission) ? bsdf.f_pdf(si.wo, ls->wi, &p_b)
+                                             : bsdf.f(si.wo, ls->wi);
+        f *= absdot(ls->wi, bsdf.frame().z);
+        if (!cull || !f.is_black()) {
+            traced = true;
+            Ray shadow = (lt == LightType::Infinite || lt == LightType::DeltaDirection)
+                             ? si.spawn_ray(ls->wi)
+                             : si.spawn_ray_to(ls->p_light);
+            ++rays;
+            if (!sc.geometry->occluded(shadow)) {
+                float p_l = sampled->pmf * ls->pdf;
+                if (delta) {
+                    L += beta * f * ls->L / p_l;
+                } else {
+                    float w = st.bsdf_emission ? power_heuristic(p_l, p_b) : 1.f;
+                    L += beta * f * ls->L * (w / p_l);
+                }
+            }
+        }
+    }
+    if (!traced) ++avoided;
+}
+
 }  // namespace
 
 PathIntegrator::PathIntegrator(const Scene &scene, uint32_t seed, int max_depth,
@@ -204,15 +304,12 @@ PathIntegrator::PathResult PathIntegrator::trace_impl(
     const Scene &sc = scene_;
     Ray ray = cray.ray;
     Rgb L(0.f), beta(1.f);
-    bool specular_bounce = false, any_non_specular = false;
+    BounceState b;
     float eta_scale = 1.f;
-    float p_bsdf = 1.f;  // solid-angle pdf of the last BSDF sample
-    LightSampleContext prev_ctx;
-    int depth = 0, skips = 0;
-    const bool use_nee = strategy_ != DirectStrategy::BsdfOnly;
-    const bool use_bsdf_emission = strategy_ != DirectStrategy::LightOnly;
+    int skips = 0;
+    const Strategies st{strategy_ != DirectStrategy::BsdfOnly,
+                        strategy_ != DirectStrategy::LightOnly};
     const bool need_differentials = differentials_;
-    (void)any_non_specular;
 
     while (true) {
         // The camera ray's hit may come traced already (evaluate_batch's packets).
@@ -222,48 +319,17 @@ PathIntegrator::PathResult PathIntegrator::trace_impl(
         first = nullptr;
         ++res.rays;
         if (!hit) {
-            // Escaped: infinite lights, MIS-weighted against light sampling.
-            for (const Light *light : sc.infinite_lights) {
-                Rgb Le = light->Le(ray.d);
-                if (Le.is_black()) continue;
-                if (depth == 0 || specular_bounce) {
-                    L += beta * Le;
-                } else if (use_bsdf_emission) {
-                    float w = 1.f;
-                    if (use_nee) {
-                        float p_l = sc.light_sampler->pmf(light) *
-                                    light->pdf_li(prev_ctx, ray.d, Vec3f(), Vec3f());
-                        w = power_heuristic(p_bsdf, p_l);
-                    }
-                    L += beta * Le * w;
-                }
-            }
+            add_escaped_radiance(sc, ray, b, st, beta, L);
             break;
         }
         SurfaceInteraction &si = *hit;
-        if (depth == 0 && skips == 0) {
+        if (b.depth == 0 && skips == 0) {
             res.depth = si.t * length(ray.d);
             res.normal = si.ns;
         }
-        // Emission from an area light hit by this ray.
-        if (si.area_light) {
-            Rgb Le = si.area_light->L(si.p, si.n, si.uv, si.wo);
-            if (!Le.is_black()) {
-                if (depth == 0 || specular_bounce) {
-                    L += beta * Le;
-                } else if (use_bsdf_emission) {
-                    float w = 1.f;
-                    if (use_nee) {
-                        float p_l = sc.light_sampler->pmf(si.area_light) *
-                                    si.area_light->pdf_li(prev_ctx, normalize(ray.d), si.p, si.n);
-                        w = power_heuristic(p_bsdf, p_l);
-                    }
-                    L += beta * Le * w;
-                }
-            }
-        }
+        if (si.area_light) add_area_emission(sc, ray, si, b, st, beta, L);
         if (need_differentials)
-            compute_differentials(si, depth == 0 ? &cray : nullptr, *sc.camera, spp_hint_);
+            compute_differentials(si, b.depth == 0 ? &cray : nullptr, *sc.camera, spp_hint_);
         // The BSDF: in the Lambertian specialisation straight from the material's constant
         // reflectance, in the frame Material::frame builds without a bump map.
         using BsdfType = std::conditional_t<kLambertian, LambertianBsdf, Bsdf>;
@@ -282,50 +348,14 @@ PathIntegrator::PathResult PathIntegrator::trace_impl(
             ray = si.spawn_ray(ray.d);
             continue;
         }
-        if (depth == 0) res.albedo = bsdf->albedo_hint();
-        if (depth++ == max_depth_) break;
+        if (b.depth == 0) res.albedo = bsdf->albedo_hint();
+        if (b.depth++ == max_depth_) break;
 
-        // Next-event estimation.
-        if (use_nee && bsdf->has_non_specular() && sc.light_sampler) {
-            float u_light = sampler.get_1d();
-            Vec2f u2 = sampler.get_2d();
-            LightSampleContext ctx{si.p, si.n};
-            if (auto sampled = sc.light_sampler->sample(u_light)) {
-                const Light *light = sampled->light;
-                bool traced = false;
-                // Without culling (the general path) a sample whose radiance or BSDF value is
-                // zero still traces its shadow ray and adds nothing.
-                if (auto ls = light->sample_li(ctx, u2);
-                    ls && (!cull_ || !ls->L.is_black()) && ls->pdf > 0) {
-                    LightType lt = light->type();
-                    const bool delta = is_delta_light(lt);
-                    float p_b = 0.f;
-                    Rgb f = (!delta && use_bsdf_emission) ? bsdf->f_pdf(si.wo, ls->wi, &p_b)
-                                                          : bsdf->f(si.wo, ls->wi);
-                    f *= absdot(ls->wi, bsdf->frame().z);
-                    if (!cull_ || !f.is_black()) {
-                        traced = true;
-                        Ray shadow = (lt == LightType::Infinite || lt == LightType::DeltaDirection)
-                                         ? si.spawn_ray(ls->wi)
-                                         : si.spawn_ray_to(ls->p_light);
-                        ++res.rays;
-                        if (!sc.geometry->occluded(shadow)) {
-                            float p_l = sampled->pmf * ls->pdf;
-                            if (delta) {
-                                L += beta * f * ls->L / p_l;
-                            } else {
-                                float w = use_bsdf_emission ? power_heuristic(p_l, p_b) : 1.f;
-                                L += beta * f * ls->L * (w / p_l);
-                            }
-                        }
-                    }
-                }
-                if (!traced) ++res.shadow_rays_avoided;
-            }
-        } else if (use_nee) {
-            // Keep the dimension layout fixed whatever the material.
-            sampler.skip(3);
-        }
+        if (st.nee && bsdf->has_non_specular() && sc.light_sampler)
+            add_direct_light(sc, si, *bsdf, st, cull_, beta, sampler, L, res.rays,
+                             res.shadow_rays_avoided);
+        else if (st.nee)
+            sampler.skip(3);  // keep the dimension layout fixed whatever the material
 
         // BSDF sampling for the next direction.
         float uc = sampler.get_1d();
@@ -335,18 +365,17 @@ PathIntegrator::PathResult PathIntegrator::trace_impl(
         beta *= bs->f * (absdot(bs->wi, bsdf->frame().z) / bs->pdf);
         // A proportional pdf (the layered BSDFs) is replaced by pdf()'s density for MIS; after
         // a specular sample MIS never reads it.
-        p_bsdf = bs->pdf_is_proportional && !bs->is_specular() ? bsdf->pdf(si.wo, bs->wi)
-                                                                : bs->pdf;
-        specular_bounce = bs->is_specular();
-        any_non_specular |= !specular_bounce;
+        b.p_bsdf = bs->pdf_is_proportional && !bs->is_specular() ? bsdf->pdf(si.wo, bs->wi)
+                                                                  : bs->pdf;
+        b.specular_bounce = bs->is_specular();
         if (bs->is_transmission()) eta_scale *= sqr(bs->eta);
-        prev_ctx = LightSampleContext{si.p, si.n};
+        b.prev_ctx = LightSampleContext{si.p, si.n};
         ray = si.spawn_ray(bs->wi);
 
         // Russian roulette (pbrt-v4): on throughput scaled by the squared relative IOR.
         // The roulette dimension is always consumed, but only hashed when it is used.
         float rr_max = (beta * eta_scale).max_value();
-        if (rr_max < 1.f && depth > 1) {
+        if (rr_max < 1.f && b.depth > 1) {
             float q = std::max(0.f, 1.f - rr_max);
             if (sampler.get_1d() < q)
                 break;

@@ -120,9 +120,8 @@ std::shared_ptr<const LensSystem> build_lens_system(const SceneDesc &d,
     }
 }
 
-void apply_settings(const SceneDesc &d, const SceneOverrides &ov, Scene &sc) {
-    RenderSettings &s = sc.settings;
-    s.scene_file = d.main_file;
+/// Film: resolution, output name, AOVs, the sensor's imaging ratio, clamp and white balance.
+void apply_film(const SceneDesc &d, RenderSettings &s) {
     if (d.film.present) {
         const ParamSet &ps = d.film.params;
         // pbrt-v4: "gbuffer" adds the geometric AOVs to the RGB image; "rgb" has none.
@@ -180,6 +179,10 @@ void apply_settings(const SceneDesc &d, const SceneOverrides &ov, Scene &sc) {
     } else {
         s.output = "pbrt.exr";
     }
+}
+
+/// Sampler: samples per pixel and seed (Tessera always uses its Owen-scrambled Sobol points).
+void apply_sampler(const SceneDesc &d, RenderSettings &s) {
     if (d.sampler.present) {
         static const char *kSamplers[] = {"zsobol", "paddedsobol", "sobol",      "halton",
                                           "pmj02bn", "independent", "stratified"};
@@ -195,6 +198,10 @@ void apply_settings(const SceneDesc &d, const SceneOverrides &ov, Scene &sc) {
         }
         for (const Param &p : d.sampler.params.params) p.used = true;
     }
+}
+
+/// Integrator: path or volpath, depth, the unsupported settings warned about.
+void apply_integrator(const SceneDesc &d, RenderSettings &s) {
     if (d.integrator.present) {
         const ParamSet &ps = d.integrator.params;
         const std::string &t = d.integrator.type;
@@ -220,6 +227,11 @@ void apply_settings(const SceneDesc &d, const SceneOverrides &ov, Scene &sc) {
         }
         ps.report_unused("Integrator");
     }
+}
+
+/// The command line's overrides, then the film's resolution, spp and memory checked before any
+/// geometry is loaded.
+void apply_overrides(const SceneDesc &d, const SceneOverrides &ov, RenderSettings &s) {
     if (ov.width) s.width = *ov.width;
     if (ov.height) s.height = *ov.height;
     if (ov.spp) s.spp = *ov.spp;
@@ -230,37 +242,43 @@ void apply_settings(const SceneDesc &d, const SceneOverrides &ov, Scene &sc) {
     if (!(s.max_component > 0))
         throw SceneError(ov.max_component ? FileLoc{"--clamp", 0} : d.film.loc,
                          "the firefly clamp (maxcomponentvalue) must be positive");
-    // Resolution, spp and the film's memory, before any geometry is loaded.
     check_film(s.width, s.height, s.spp,
                ov.width || ov.height ? FileLoc{"--resolution", 0} : d.film.loc,
                ov.spp ? FileLoc{"--spp", 0} : d.sampler.loc, s.aovs);
+}
 
-    // Pixel filter (pbrt-v4 default: gaussian, radius 1.5, sigma 0.5).
+/// The pixel filter (pbrt-v4 default: gaussian, radius 1.5, sigma 0.5).
+PixelFilter build_filter(const SceneDesc &d) {
     std::string ft = d.filter.present ? d.filter.type : "gaussian";
     const ParamSet &fp = d.filter.params;
+    PixelFilter filter;
     if (ft == "box") {
-        sc.filter = PixelFilter(PixelFilter::Kind::Box,
+        filter = PixelFilter(PixelFilter::Kind::Box,
                                 {fp.get_float("xradius", 0.5f), fp.get_float("yradius", 0.5f)});
     } else if (ft == "triangle") {
-        sc.filter = PixelFilter(PixelFilter::Kind::Triangle,
+        filter = PixelFilter(PixelFilter::Kind::Triangle,
                                 {fp.get_float("xradius", 2.f), fp.get_float("yradius", 2.f)});
     } else if (ft == "gaussian") {
-        sc.filter = PixelFilter(PixelFilter::Kind::Gaussian,
+        filter = PixelFilter(PixelFilter::Kind::Gaussian,
                                 {fp.get_float("xradius", 1.5f), fp.get_float("yradius", 1.5f)},
                                 fp.get_float("sigma", 0.5f));
     } else if (ft == "mitchell") {
-        sc.filter = PixelFilter::mitchell(
+        filter = PixelFilter::mitchell(
             {fp.get_float("xradius", 2.f), fp.get_float("yradius", 2.f)},
             fp.get_float("B", 1.f / 3.f), fp.get_float("C", 1.f / 3.f));
     } else if (ft == "sinc") {
-        sc.filter = PixelFilter::lanczos(
+        filter = PixelFilter::lanczos(
             {fp.get_float("xradius", 4.f), fp.get_float("yradius", 4.f)}, fp.get_float("tau", 3.f));
     } else {
         throw SceneError(d.filter.loc, "unknown pixel filter type \"" + ft + "\"");
     }
     if (d.filter.present) fp.report_unused("PixelFilter");
+    return filter;
+}
 
-    // Camera.
+/// The camera, for the film size in `s`; its shutter interval scales s.image_scale (pbrt-v4
+/// PixelSensor imaging ratio).
+std::unique_ptr<PerspectiveCamera> build_camera(const SceneDesc &d, RenderSettings &s) {
     float fov = 90.f, lens_radius = 0.f, focal_distance = 1e6f;
     std::shared_ptr<const LensSystem> lens;
     bool orthographic = false;
@@ -319,124 +337,167 @@ void apply_settings(const SceneDesc &d, const SceneOverrides &ov, Scene &sc) {
         s.image_scale *= std::max(0.f, close - open);
         cp.report_unused("Camera");
     }
-    sc.camera = std::make_unique<PerspectiveCamera>(d.camera_from_world, s.width, s.height, fov,
-                                                    lens_radius, focal_distance,
-                                                    sw.empty() ? nullptr : sw.data(),
-                                                    orthographic, spherical);
-    if (lens) sc.camera->set_lens_system(std::move(lens));
+    auto camera = std::make_unique<PerspectiveCamera>(d.camera_from_world, s.width, s.height,
+                                                      fov, lens_radius, focal_distance,
+                                                      sw.empty() ? nullptr : sw.data(),
+                                                      orthographic, spherical);
+    if (lens) camera->set_lens_system(std::move(lens));
+    return camera;
 }
 
-/// A shape's triangles in the target space, or nullopt for quadrics/unsupported shapes.
-/// *face_of_triangle gets the face (quad, patch) each triangle was cut from, or stays empty
-/// when the faces are the triangles themselves.
-std::optional<TriangleMesh> triangles_of(const ShapeDesc &sd, const Transform &xf,
-                                         std::vector<uint32_t> *face_of_triangle) {
-    const ParamSet &ps = sd.params;
-    TriangleMesh m;
+void apply_settings(const SceneDesc &d, const SceneOverrides &ov, Scene &sc) {
+    RenderSettings &s = sc.settings;
+    s.scene_file = d.main_file;
+    apply_film(d, s);
+    apply_sampler(d, s);
+    apply_integrator(d, s);
+    apply_overrides(d, ov, s);
+    sc.filter = build_filter(d);
+    sc.camera = build_camera(d, s);
+}
+
+/// A shape's vertex data as its file or parameters give it, before the checks and the transform.
+struct RawMesh {
     std::vector<Vec3f> p, n;
     std::vector<Vec2f> uv;
     std::vector<int> idx;
-    if (sd.type == "trianglemesh" || sd.type == "loopsubdiv") {
-        p = ps.get_point3s("P");
-        idx = ps.get_ints("indices");
-        n = ps.get_normals("N");
-        uv = ps.get_point2s("uv");
-        if (uv.empty()) uv = ps.get_point2s("st");
-        if (idx.empty()) {
-            if (p.size() == 3)
-                idx = {0, 1, 2};
-            else
-                throw SceneError(sd.loc, "trianglemesh: \"indices\" missing");
-        }
-        for (const char *ig : {"S", "faceIndices"})
-            if (const Param *x = ps.find(ig)) x->used = true;
-        if (sd.type == "loopsubdiv") {
-            // pbrt-v4: "levels" (default 3) rounds of Loop subdivision, vertices on the limit
-            // surface; the result is a triangle mesh with normals.
-            int levels = std::clamp(ps.get_int("levels", 3), 0, 8);
-            // Each level quadruples the triangles: check the result's size first.
-            check_mesh(uint64_t(p.size()) << (2 * levels), uint64_t(idx.size() / 3) << (2 * levels),
-                       "loopsubdiv with " + std::to_string(levels) + " levels", sd.loc);
-            for (int i : idx)
-                if (i < 0 || size_t(i) >= p.size())
-                    throw SceneError(sd.loc, "loopsubdiv: vertex index out of range");
-            if (idx.size() % 3 != 0)
-                throw SceneError(sd.loc, "loopsubdiv: the number of indices is not a multiple of 3");
-            SubdividedMesh sub =
-                loop_subdivide(p, std::vector<uint32_t>(idx.begin(), idx.end()), levels);
-            p = std::move(sub.p);
-            n = std::move(sub.n);
-            uv.clear();
-            idx.assign(sub.indices.begin(), sub.indices.end());
-        }
-    } else if (sd.type == "plymesh") {
-        std::string file = resolve(sd.base_dir, sd.loc, ps.get_string("filename", ""));
-        MeshData md;
-        try {
-            md = load_ply(file);
-        } catch (const SceneError &e) {
-            // Name the Shape directive too: the reader only knows the mesh file.
-            throw SceneError(sd.loc, std::string("plymesh: ") + e.what());
-        }
-        p = std::move(md.p);
-        n = std::move(md.n);
-        uv = std::move(md.uv);
-        idx.assign(md.indices.begin(), md.indices.end());
-        *face_of_triangle = std::move(md.face_of_triangle);
-        if (ps.find("displacement")) {
-            warn(sd.loc, "plymesh \"displacement\" is not supported; ignored");
-            for (const char *ig : {"displacement", "edgelength"})
-                if (const Param *x = ps.find(ig)) x->used = true;
-        }
-    } else if (sd.type == "bilinearmesh") {
-        p = ps.get_point3s("P");
-        std::vector<int> quads = ps.get_ints("indices");
-        n = ps.get_normals("N");
-        uv = ps.get_point2s("uv");
-        if (quads.empty() && p.size() == 4) quads = {0, 1, 2, 3};
-        if (quads.size() % 4 != 0)
-            throw SceneError(sd.loc, "bilinearmesh: \"indices\" must hold 4 per patch");
-        bool warned = false;
-        for (size_t q = 0; q + 3 < quads.size(); q += 4) {
-            int v00 = quads[q], v10 = quads[q + 1], v01 = quads[q + 2], v11 = quads[q + 3];
-            for (int v : {v00, v10, v01, v11})
-                if (v < 0 || size_t(v) >= p.size())
-                    throw SceneError(sd.loc, "bilinearmesh: index out of range");
-            // Non-planar patches are approximated by two triangles.
-            Vec3f nrm = cross(p[size_t(v10)] - p[size_t(v00)], p[size_t(v01)] - p[size_t(v00)]);
-            float off = dot(normalize(nrm), p[size_t(v11)] - p[size_t(v00)]);
-            float scale = length(p[size_t(v11)] - p[size_t(v00)]);
-            if (!warned && std::abs(off) > 1e-4f * scale) {
-                warn(sd.loc, "non-planar bilinear patches are approximated by two triangles");
-                warned = true;
-            }
-            // Patch (v00, v10, v01, v11): triangles (v00, v10, v11) and (v00, v11, v01) keep the
-            // orientation of dpdu x dpdv.
-            idx.insert(idx.end(), {v00, v10, v11, v00, v11, v01});
-            face_of_triangle->insert(face_of_triangle->end(), 2, uint32_t(q / 4));
-        }
-        if (uv.empty()) {
-            // pbrt-v4 gives every patch its own parametric (0,0),(1,0),(0,1),(1,1): unshare the
-            // vertices so that each patch's triangles carry those uvs.
-            std::vector<Vec3f> p2, n2;
-            std::vector<int> idx2;
-            for (size_t q = 0; q + 3 < quads.size(); q += 4) {
-                int base = int(p2.size());
-                const Vec2f corner[4] = {{0, 0}, {1, 0}, {0, 1}, {1, 1}};
-                for (int c = 0; c < 4; ++c) {
-                    p2.push_back(p[size_t(quads[q + size_t(c)])]);
-                    if (!n.empty() && n.size() == p.size()) n2.push_back(n[size_t(quads[q + size_t(c)])]);
-                    uv.push_back(corner[c]);
-                }
-                idx2.insert(idx2.end(), {base, base + 1, base + 3, base, base + 3, base + 2});
-            }
-            p = std::move(p2);
-            n = std::move(n2);
-            idx = std::move(idx2);
-        }
-    } else {
-        return std::nullopt;
+};
+
+/// "trianglemesh" and "loopsubdiv" (subdivided here: pbrt-v4's "levels" rounds of Loop
+/// subdivision, vertices on the limit surface).
+RawMesh read_triangle_mesh(const ShapeDesc &sd) {
+    const ParamSet &ps = sd.params;
+    RawMesh r;
+    std::vector<Vec3f> &p = r.p, &n = r.n;
+    std::vector<Vec2f> &uv = r.uv;
+    std::vector<int> &idx = r.idx;
+    p = ps.get_point3s("P");
+    idx = ps.get_ints("indices");
+    n = ps.get_normals("N");
+    uv = ps.get_point2s("uv");
+    if (uv.empty()) uv = ps.get_point2s("st");
+    if (idx.empty()) {
+        if (p.size() == 3)
+            idx = {0, 1, 2};
+        else
+            throw SceneError(sd.loc, "trianglemesh: \"indices\" missing");
     }
+    for (const char *ig : {"S", "faceIndices"})
+        if (const Param *x = ps.find(ig)) x->used = true;
+    if (sd.type == "loopsubdiv") {
+        // pbrt-v4: "levels" (default 3) rounds of Loop subdivision, vertices on the limit
+        // surface; the result is a triangle mesh with normals.
+        int levels = std::clamp(ps.get_int("levels", 3), 0, 8);
+        // Each level quadruples the triangles: check the result's size first.
+        check_mesh(uint64_t(p.size()) << (2 * levels), uint64_t(idx.size() / 3) << (2 * levels),
+                   "loopsubdiv with " + std::to_string(levels) + " levels", sd.loc);
+        for (int i : idx)
+            if (i < 0 || size_t(i) >= p.size())
+                throw SceneError(sd.loc, "loopsubdiv: vertex index out of range");
+        if (idx.size() % 3 != 0)
+            throw SceneError(sd.loc, "loopsubdiv: the number of indices is not a multiple of 3");
+        SubdividedMesh sub =
+            loop_subdivide(p, std::vector<uint32_t>(idx.begin(), idx.end()), levels);
+        p = std::move(sub.p);
+        n = std::move(sub.n);
+        uv.clear();
+        idx.assign(sub.indices.begin(), sub.indices.end());
+    }
+    return r;
+}
+
+/// "plymesh": Tessera's PLY reader (input/ply_reader.h). Quads become two triangles each;
+/// *face_of_triangle gets the face each triangle was cut from.
+RawMesh read_plymesh(const ShapeDesc &sd, std::vector<uint32_t> *face_of_triangle) {
+    const ParamSet &ps = sd.params;
+    RawMesh r;
+    std::vector<Vec3f> &p = r.p, &n = r.n;
+    std::vector<Vec2f> &uv = r.uv;
+    std::vector<int> &idx = r.idx;
+    std::string file = resolve(sd.base_dir, sd.loc, ps.get_string("filename", ""));
+    MeshData md;
+    try {
+        md = load_ply(file);
+    } catch (const SceneError &e) {
+        // Name the Shape directive too: the reader only knows the mesh file.
+        throw SceneError(sd.loc, std::string("plymesh: ") + e.what());
+    }
+    p = std::move(md.p);
+    n = std::move(md.n);
+    uv = std::move(md.uv);
+    idx.assign(md.indices.begin(), md.indices.end());
+    *face_of_triangle = std::move(md.face_of_triangle);
+    if (ps.find("displacement")) {
+        warn(sd.loc, "plymesh \"displacement\" is not supported; ignored");
+        for (const char *ig : {"displacement", "edgelength"})
+            if (const Param *x = ps.find(ig)) x->used = true;
+    }
+    return r;
+}
+
+/// "bilinearmesh": each patch as two triangles (exact for planar patches); without "uv" every
+/// patch gets pbrt-v4's parametric corners, its vertices unshared.
+RawMesh read_bilinear_mesh(const ShapeDesc &sd, std::vector<uint32_t> *face_of_triangle) {
+    const ParamSet &ps = sd.params;
+    RawMesh r;
+    std::vector<Vec3f> &p = r.p, &n = r.n;
+    std::vector<Vec2f> &uv = r.uv;
+    std::vector<int> &idx = r.idx;
+    p = ps.get_point3s("P");
+    std::vector<int> quads = ps.get_ints("indices");
+    n = ps.get_normals("N");
+    uv = ps.get_point2s("uv");
+    if (quads.empty() && p.size() == 4) quads = {0, 1, 2, 3};
+    if (quads.size() % 4 != 0)
+        throw SceneError(sd.loc, "bilinearmesh: \"indices\" must hold 4 per patch");
+    bool warned = false;
+    for (size_t q = 0; q + 3 < quads.size(); q += 4) {
+        int v00 = quads[q], v10 = quads[q + 1], v01 = quads[q + 2], v11 = quads[q + 3];
+        for (int v : {v00, v10, v01, v11})
+            if (v < 0 || size_t(v) >= p.size())
+                throw SceneError(sd.loc, "bilinearmesh: index out of range");
+        // Non-planar patches are approximated by two triangles.
+        Vec3f nrm = cross(p[size_t(v10)] - p[size_t(v00)], p[size_t(v01)] - p[size_t(v00)]);
+        float off = dot(normalize(nrm), p[size_t(v11)] - p[size_t(v00)]);
+        float scale = length(p[size_t(v11)] - p[size_t(v00)]);
+        if (!warned && std::abs(off) > 1e-4f * scale) {
+            warn(sd.loc, "non-planar bilinear patches are approximated by two triangles");
+            warned = true;
+        }
+        // Patch (v00, v10, v01, v11): triangles (v00, v10, v11) and (v00, v11, v01) keep the
+        // orientation of dpdu x dpdv.
+        idx.insert(idx.end(), {v00, v10, v11, v00, v11, v01});
+        face_of_triangle->insert(face_of_triangle->end(), 2, uint32_t(q / 4));
+    }
+    if (uv.empty()) {
+        // pbrt-v4 gives every patch its own parametric (0,0),(1,0),(0,1),(1,1): unshare the
+        // vertices so that each patch's triangles carry those uvs.
+        std::vector<Vec3f> p2, n2;
+        std::vector<int> idx2;
+        for (size_t q = 0; q + 3 < quads.size(); q += 4) {
+            int base = int(p2.size());
+            const Vec2f corner[4] = {{0, 0}, {1, 0}, {0, 1}, {1, 1}};
+            for (int c = 0; c < 4; ++c) {
+                p2.push_back(p[size_t(quads[q + size_t(c)])]);
+                if (!n.empty() && n.size() == p.size()) n2.push_back(n[size_t(quads[q + size_t(c)])]);
+                uv.push_back(corner[c]);
+            }
+            idx2.insert(idx2.end(), {base, base + 1, base + 3, base, base + 3, base + 2});
+        }
+        p = std::move(p2);
+        n = std::move(n2);
+        idx = std::move(idx2);
+    }
+    return r;
+}
+
+/// The checked mesh in the target space: indices in range, normals and uvs kept only when
+/// complete and finite, every vertex finite after the transform, orientation as pbrt-v4's.
+TriangleMesh finish_mesh(const ShapeDesc &sd, const Transform &xf, RawMesh raw) {
+    TriangleMesh m;
+    std::vector<Vec3f> &p = raw.p, &n = raw.n;
+    std::vector<Vec2f> &uv = raw.uv;
+    std::vector<int> &idx = raw.idx;
     if (idx.size() % 3 != 0)
         throw SceneError(sd.loc, sd.type + ": the number of indices is not a multiple of 3");
     if (p.empty()) throw SceneError(sd.loc, sd.type + ": no vertex positions \"P\"");
@@ -492,6 +553,19 @@ std::optional<TriangleMesh> triangles_of(const ShapeDesc &sd, const Transform &x
     m.indices.assign(idx.begin(), idx.end());
     m.flip_normal = sd.reverse_orientation != xf.swaps_handedness();
     return m;
+}
+
+/// A shape's triangles in the target space, or nullopt for quadrics/unsupported shapes.
+/// *face_of_triangle gets the face (quad, patch) each triangle was cut from, or stays empty
+/// when the faces are the triangles themselves.
+std::optional<TriangleMesh> triangles_of(const ShapeDesc &sd, const Transform &xf,
+                                         std::vector<uint32_t> *face_of_triangle) {
+    if (sd.type == "trianglemesh" || sd.type == "loopsubdiv")
+        return finish_mesh(sd, xf, read_triangle_mesh(sd));
+    if (sd.type == "plymesh") return finish_mesh(sd, xf, read_plymesh(sd, face_of_triangle));
+    if (sd.type == "bilinearmesh")
+        return finish_mesh(sd, xf, read_bilinear_mesh(sd, face_of_triangle));
+    return std::nullopt;
 }
 
 void warn_shape_params(const ShapeDesc &sd) {
