@@ -368,17 +368,14 @@ struct RawMesh {
 RawMesh read_triangle_mesh(const ShapeDesc &sd) {
     const ParamSet &ps = sd.params;
     RawMesh r;
-    std::vector<Vec3f> &p = r.p, &n = r.n;
-    std::vector<Vec2f> &uv = r.uv;
-    std::vector<int> &idx = r.idx;
-    p = ps.get_point3s("P");
-    idx = ps.get_ints("indices");
-    n = ps.get_normals("N");
-    uv = ps.get_point2s("uv");
-    if (uv.empty()) uv = ps.get_point2s("st");
-    if (idx.empty()) {
-        if (p.size() == 3)
-            idx = {0, 1, 2};
+    r.p = ps.get_point3s("P");
+    r.idx = ps.get_ints("indices");
+    r.n = ps.get_normals("N");
+    r.uv = ps.get_point2s("uv");
+    if (r.uv.empty()) r.uv = ps.get_point2s("st");
+    if (r.idx.empty()) {
+        if (r.p.size() == 3)
+            r.idx = {0, 1, 2};
         else
             throw SceneError(sd.loc, "trianglemesh: \"indices\" missing");
     }
@@ -389,19 +386,20 @@ RawMesh read_triangle_mesh(const ShapeDesc &sd) {
         // surface; the result is a triangle mesh with normals.
         int levels = std::clamp(ps.get_int("levels", 3), 0, 8);
         // Each level quadruples the triangles: check the result's size first.
-        check_mesh(uint64_t(p.size()) << (2 * levels), uint64_t(idx.size() / 3) << (2 * levels),
+        check_mesh(uint64_t(r.p.size()) << (2 * levels),
+                   uint64_t(r.idx.size() / 3) << (2 * levels),
                    "loopsubdiv with " + std::to_string(levels) + " levels", sd.loc);
-        for (int i : idx)
-            if (i < 0 || size_t(i) >= p.size())
+        for (int i : r.idx)
+            if (i < 0 || size_t(i) >= r.p.size())
                 throw SceneError(sd.loc, "loopsubdiv: vertex index out of range");
-        if (idx.size() % 3 != 0)
+        if (r.idx.size() % 3 != 0)
             throw SceneError(sd.loc, "loopsubdiv: the number of indices is not a multiple of 3");
         SubdividedMesh sub =
-            loop_subdivide(p, std::vector<uint32_t>(idx.begin(), idx.end()), levels);
-        p = std::move(sub.p);
-        n = std::move(sub.n);
-        uv.clear();
-        idx.assign(sub.indices.begin(), sub.indices.end());
+            loop_subdivide(r.p, std::vector<uint32_t>(r.idx.begin(), r.idx.end()), levels);
+        r.p = std::move(sub.p);
+        r.n = std::move(sub.n);
+        r.uv.clear();
+        r.idx.assign(sub.indices.begin(), sub.indices.end());
     }
     return r;
 }
@@ -411,9 +409,6 @@ RawMesh read_triangle_mesh(const ShapeDesc &sd) {
 RawMesh read_plymesh(const ShapeDesc &sd, std::vector<uint32_t> *face_of_triangle) {
     const ParamSet &ps = sd.params;
     RawMesh r;
-    std::vector<Vec3f> &p = r.p, &n = r.n;
-    std::vector<Vec2f> &uv = r.uv;
-    std::vector<int> &idx = r.idx;
     std::string file = resolve(sd.base_dir, sd.loc, ps.get_string("filename", ""));
     MeshData md;
     try {
@@ -422,10 +417,10 @@ RawMesh read_plymesh(const ShapeDesc &sd, std::vector<uint32_t> *face_of_triangl
         // Name the Shape directive too: the reader only knows the mesh file.
         throw SceneError(sd.loc, std::string("plymesh: ") + e.what());
     }
-    p = std::move(md.p);
-    n = std::move(md.n);
-    uv = std::move(md.uv);
-    idx.assign(md.indices.begin(), md.indices.end());
+    r.p = std::move(md.p);
+    r.n = std::move(md.n);
+    r.uv = std::move(md.uv);
+    r.idx.assign(md.indices.begin(), md.indices.end());
     *face_of_triangle = std::move(md.face_of_triangle);
     if (ps.find("displacement")) {
         warn(sd.loc, "plymesh \"displacement\" is not supported; ignored");
@@ -440,36 +435,34 @@ RawMesh read_plymesh(const ShapeDesc &sd, std::vector<uint32_t> *face_of_triangl
 RawMesh read_bilinear_mesh(const ShapeDesc &sd, std::vector<uint32_t> *face_of_triangle) {
     const ParamSet &ps = sd.params;
     RawMesh r;
-    std::vector<Vec3f> &p = r.p, &n = r.n;
-    std::vector<Vec2f> &uv = r.uv;
-    std::vector<int> &idx = r.idx;
-    p = ps.get_point3s("P");
+    r.p = ps.get_point3s("P");
     std::vector<int> quads = ps.get_ints("indices");
-    n = ps.get_normals("N");
-    uv = ps.get_point2s("uv");
-    if (quads.empty() && p.size() == 4) quads = {0, 1, 2, 3};
+    r.n = ps.get_normals("N");
+    r.uv = ps.get_point2s("uv");
+    if (quads.empty() && r.p.size() == 4) quads = {0, 1, 2, 3};
     if (quads.size() % 4 != 0)
         throw SceneError(sd.loc, "bilinearmesh: \"indices\" must hold 4 per patch");
     bool warned = false;
     for (size_t q = 0; q + 3 < quads.size(); q += 4) {
         int v00 = quads[q], v10 = quads[q + 1], v01 = quads[q + 2], v11 = quads[q + 3];
         for (int v : {v00, v10, v01, v11})
-            if (v < 0 || size_t(v) >= p.size())
+            if (v < 0 || size_t(v) >= r.p.size())
                 throw SceneError(sd.loc, "bilinearmesh: index out of range");
         // Non-planar patches are approximated by two triangles.
-        Vec3f nrm = cross(p[size_t(v10)] - p[size_t(v00)], p[size_t(v01)] - p[size_t(v00)]);
-        float off = dot(normalize(nrm), p[size_t(v11)] - p[size_t(v00)]);
-        float scale = length(p[size_t(v11)] - p[size_t(v00)]);
+        Vec3f nrm =
+            cross(r.p[size_t(v10)] - r.p[size_t(v00)], r.p[size_t(v01)] - r.p[size_t(v00)]);
+        float off = dot(normalize(nrm), r.p[size_t(v11)] - r.p[size_t(v00)]);
+        float scale = length(r.p[size_t(v11)] - r.p[size_t(v00)]);
         if (!warned && std::abs(off) > 1e-4f * scale) {
             warn(sd.loc, "non-planar bilinear patches are approximated by two triangles");
             warned = true;
         }
         // Patch (v00, v10, v01, v11): triangles (v00, v10, v11) and (v00, v11, v01) keep the
         // orientation of dpdu x dpdv.
-        idx.insert(idx.end(), {v00, v10, v11, v00, v11, v01});
+        r.idx.insert(r.idx.end(), {v00, v10, v11, v00, v11, v01});
         face_of_triangle->insert(face_of_triangle->end(), 2, uint32_t(q / 4));
     }
-    if (uv.empty()) {
+    if (r.uv.empty()) {
         // pbrt-v4 gives every patch its own parametric (0,0),(1,0),(0,1),(1,1): unshare the
         // vertices so that each patch's triangles carry those uvs.
         std::vector<Vec3f> p2, n2;
@@ -478,15 +471,16 @@ RawMesh read_bilinear_mesh(const ShapeDesc &sd, std::vector<uint32_t> *face_of_t
             int base = int(p2.size());
             const Vec2f corner[4] = {{0, 0}, {1, 0}, {0, 1}, {1, 1}};
             for (int c = 0; c < 4; ++c) {
-                p2.push_back(p[size_t(quads[q + size_t(c)])]);
-                if (!n.empty() && n.size() == p.size()) n2.push_back(n[size_t(quads[q + size_t(c)])]);
-                uv.push_back(corner[c]);
+                p2.push_back(r.p[size_t(quads[q + size_t(c)])]);
+                if (!r.n.empty() && r.n.size() == r.p.size())
+                    n2.push_back(r.n[size_t(quads[q + size_t(c)])]);
+                r.uv.push_back(corner[c]);
             }
             idx2.insert(idx2.end(), {base, base + 1, base + 3, base, base + 3, base + 2});
         }
-        p = std::move(p2);
-        n = std::move(n2);
-        idx = std::move(idx2);
+        r.p = std::move(p2);
+        r.n = std::move(n2);
+        r.idx = std::move(idx2);
     }
     return r;
 }
