@@ -20,6 +20,7 @@
 #include "renderer/input/pbrt_parser.h"
 #include "renderer/app/render.h"
 #include "scheduler/adaptive_scheduler.h"
+#include "scheduler/progressive_run.h"
 
 namespace tessera {
 
@@ -262,14 +263,12 @@ Reference render_reference(const Scene &scene, const ReferenceSettings &s) {
     for (uint32_t k = 0; k < 2; ++k) {
         sampling::Film film(s.width, s.height);
         PathIntegrator integrator(scene, s.seed + k, s.max_depth);
-        SamplerSpec uniform;
-        uniform.name = "uniform";
-        sched::AdaptiveOptions o = scheduler_options(scene, uniform, s.threads, s.quiet);
+        sched::AdaptiveOptions o = uniform_scheduler_options(scene, s.threads, s.quiet);
         o.max_spp = half_spp;
         o.min_spp = std::min(o.min_spp, o.max_spp);
         o.seed = s.seed + k;
         o.deterministic = true;
-        sched::AdaptiveScheduler(integrator, film, o).render(nullptr);
+        sched::ProgressiveRun(integrator, film, o).advance(0, nullptr);
         halves[k] = film.beauty_rgb();
     }
     Reference ref;

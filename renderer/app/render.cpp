@@ -16,6 +16,7 @@
 #include "renderer/util/limits.h"
 #include "renderer/scene/specialize.h"
 #include "sampling/adaptive_error.h"
+#include "scheduler/progressive_run.h"
 
 namespace tessera {
 
@@ -49,43 +50,6 @@ class SignalGuard {
 
 double seconds_since(std::chrono::steady_clock::time_point t0) {
     return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-}
-
-/// Adds the counters of one render() call to the running totals.
-void accumulate(sched::AdaptiveStats &total, const sched::AdaptiveStats &s) {
-    total.samples += s.samples;
-    total.rays += s.rays;
-    total.shadow_rays_avoided += s.shadow_rays_avoided;
-    total.nan_samples += s.nan_samples;
-    total.wall_s += s.wall_s;
-    total.threads = s.threads;
-    total.cancelled = s.cancelled;
-    total.out_of_time = s.out_of_time;
-    total.converged = s.converged;
-    total.refinements += s.refinements;
-    total.catch_up_passes += s.catch_up_passes;
-    total.final_error_target = s.final_error_target;
-    total.tiles_rendered += s.tiles_rendered;
-    total.tiles_skipped += s.tiles_skipped;
-    total.pixels_skipped += s.pixels_skipped;
-    total.lock_wait_s += s.lock_wait_s;
-    total.lock_wait_reader_s += s.lock_wait_reader_s;
-    total.lock_wait_writer_s += s.lock_wait_writer_s;
-    total.tile_wait_s += s.tile_wait_s;
-    double ms_sum = total.tree_rebuild_ms_mean * total.rebuilds +
-                    s.tree_rebuild_ms_mean * s.rebuilds;
-    total.rebuilds += s.rebuilds;
-    total.rebuilds_coalesced += s.rebuilds_coalesced;
-    total.tree_rebuild_ms_mean = total.rebuilds ? ms_sum / total.rebuilds : 0.0;
-    total.tree_rebuild_ms_max = std::max(total.tree_rebuild_ms_max, s.tree_rebuild_ms_max);
-    total.error_estimate = s.error_estimate;
-    total.spp_histogram = s.spp_histogram;
-    total.render_s += s.render_s;
-    total.rebuild_s += s.rebuild_s;
-    total.lock_wait_fraction =
-        total.wall_s > 0 && total.threads
-            ? total.lock_wait_s / (total.wall_s * double(total.threads))
-            : 0.0;
 }
 
 }  // namespace
@@ -130,15 +94,18 @@ bool keeps_prefix(const SamplerSpec &sampler) {
     return sampler.name == "adaptive" && sampler.prefix_error;
 }
 
+sched::AdaptiveOptions uniform_scheduler_options(const Scene &scene, uint32_t threads,
+                                                 bool quiet) {
+    SamplerSpec uniform;
+    uniform.name = "uniform";
+    return scheduler_options(scene, uniform, threads, quiet);
+}
+
 sched::AdaptiveStats render_scene(const Scene &scene, sampling::Film &film, uint32_t threads,
                                   double time_s, bool quiet, const std::atomic<bool> *cancel) {
     PathIntegrator integrator(scene, scene.settings.seed, scene.settings.max_depth);
-    SamplerSpec uniform;
-    uniform.name = "uniform";
-    sched::AdaptiveOptions o = scheduler_options(scene, uniform, threads, quiet);
-    o.time_s = time_s;
-    sched::AdaptiveScheduler scheduler(integrator, film, o);
-    return scheduler.render(cancel);
+    sched::ProgressiveRun run(integrator, film, uniform_scheduler_options(scene, threads, quiet));
+    return run.advance(time_s, cancel);
 }
 
 RenderReport run_render(const RenderOptions &opt) {
@@ -232,37 +199,29 @@ RenderReport run_render(const RenderOptions &opt) {
     std::unique_ptr<SampleSource> integrator =
         make_integrator(*scene, opt.integrator.empty() ? "path" : opt.integrator,
                         opt.no_specialize);
+    sched::ProgressiveRun run(*integrator, film, so);
     auto t_render = std::chrono::steady_clock::now();
     {
         SignalGuard guard;
         // Render in chunks of --checkpoint-every seconds, checkpointing after each chunk; a
-        // chunk resumes at the pass the previous one was in.
+        // chunk resumes at the pass the previous one was in (sched::ProgressiveRun).
+        bool out_of_time = false;
         while (true) {
             double remaining = opt.time_s > 0 ? opt.time_s - seconds_since(t_render) : 0.0;
             if (opt.time_s > 0 && remaining <= 0) {
-                rep.stats.out_of_time = true;
+                out_of_time = true;
                 break;
             }
-            sched::AdaptiveOptions chunk = so;
-            chunk.time_s = remaining;
+            double chunk_s = remaining;
             if (opt.checkpoint_every > 0)
-                chunk.time_s = chunk.time_s > 0 ? std::min(chunk.time_s, opt.checkpoint_every)
-                                                 : opt.checkpoint_every;
-            sched::AdaptiveScheduler scheduler(*integrator, film, chunk);
-            sched::AdaptiveStats s = scheduler.render(&g_cancel);
-            accumulate(rep.stats, s);
-            rep.passes_total = s.first_pass + s.passes;
-            rep.stats.passes = rep.passes_total;
-            // The next chunk (and a checkpoint) resumes at the first pass some tile has not
-            // finished, not after the furthest quadrant's: the others would never catch up.
-            so.start_pass = int64_t(s.resume_pass);
-            // A refined target carries over to the next chunk.
-            if (so.refine_target)
-                so.error_target = s.final_error_target;
+                chunk_s = chunk_s > 0 ? std::min(chunk_s, opt.checkpoint_every)
+                                      : opt.checkpoint_every;
+            sched::AdaptiveStats s = run.advance(chunk_s, &g_cancel);
+            out_of_time = s.out_of_time;
             bool chunk_timeout = s.out_of_time && opt.checkpoint_every > 0 &&
                                  !(opt.time_s > 0 && seconds_since(t_render) >= opt.time_s);
             if (chunk_timeout) {
-                cs.passes = uint32_t(so.start_pass);
+                cs.passes = uint32_t(run.start_pass());
                 cs.elapsed_s = elapsed_before + seconds_since(t_render);
                 // A failed periodic checkpoint (disk full for a moment) must not throw away
                 // the render: warn, keep rendering, try again at the next one.
@@ -272,13 +231,18 @@ RenderReport run_render(const RenderOptions &opt) {
                     warn(FileLoc{checkpoint, 0}, std::string("checkpoint not written: ") +
                                                      e.what() + "; rendering continues");
                 }
-                rep.stats.out_of_time = false;
+                out_of_time = false;
                 // A chunk that converged or could not take a sample has nothing left to do.
                 if (s.converged || s.samples == 0) break;
                 continue;
             }
             break;
         }
+        rep.stats = run.total();
+        rep.stats.out_of_time = out_of_time;
+        if (run.chunks() > 0) rep.passes_total = run.total().passes;
+        // The state the last chunk left: the pass to resume from and the (refined) target.
+        so = run.options();
     }
     if (rep.stats.cancelled && !opt.quiet)
         std::fprintf(stderr, "tessera: interrupted; writing the partial image and a checkpoint\n");
