@@ -25,8 +25,8 @@ void accumulate(AdaptiveStats &total, const AdaptiveStats &s) {
     total.lock_wait_reader_s += s.lock_wait_reader_s;
     total.lock_wait_writer_s += s.lock_wait_writer_s;
     total.tile_wait_s += s.tile_wait_s;
-    double ms_sum = total.tree_rebuild_ms_mean * total.rebuilds +
-                    s.tree_rebuild_ms_mean * s.rebuilds;
+    double ms_sum =
+        total.tree_rebuild_ms_mean * total.rebuilds + s.tree_rebuild_ms_mean * s.rebuilds;
     total.rebuilds += s.rebuilds;
     total.rebuilds_coalesced += s.rebuilds_coalesced;
     total.tree_rebuild_ms_mean = total.rebuilds ? ms_sum / total.rebuilds : 0.0;
@@ -35,10 +35,9 @@ void accumulate(AdaptiveStats &total, const AdaptiveStats &s) {
     total.spp_histogram = s.spp_histogram;
     total.render_s += s.render_s;
     total.rebuild_s += s.rebuild_s;
-    total.lock_wait_fraction =
-        total.wall_s > 0 && total.threads
-            ? total.lock_wait_s / (total.wall_s * double(total.threads))
-            : 0.0;
+    total.lock_wait_fraction = total.wall_s > 0 && total.threads
+                                   ? total.lock_wait_s / (total.wall_s * double(total.threads))
+                                   : 0.0;
 }
 
 ProgressiveRun::ProgressiveRun(const SampleSource &source, sampling::Film &film,

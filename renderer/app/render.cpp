@@ -65,9 +65,9 @@ sched::AdaptiveOptions scheduler_options(const Scene &scene, const SamplerSpec &
                                          uint32_t threads, bool quiet) {
     sched::AdaptiveOptions o;
     o.max_spp = uint32_t(scene.settings.spp);
-    // MoonRay's uniform start is 16 samples; fewer shows 8x8 block artefacts (see the note of
-    // the adaptive sampler issue for the measurement).
-    o.min_spp = std::min(o.max_spp, sampler.min_spp.value_or(16u));
+    // MoonRay's uniform start (sampling/progressive_settings.h).
+    o.min_spp =
+        std::min(o.max_spp, sampler.min_spp.value_or(sampling::kProgressiveDefaults.min_spp));
     o.adaptive = sampler.name == "adaptive";
     o.error_target = o.adaptive ? sampler.error.value_or(kDefaultErrorTarget) : 0.0;
     o.max_pass_spp = sampler.max_pass_spp;
