@@ -18,6 +18,7 @@
 #include <thread>
 
 #include "renderer/util/image_io.h"
+#include "renderer/util/json_io.h"
 #include "renderer/integrators/path_integrator.h"
 #include "renderer/app/reference.h"
 #include "scheduler/adaptive_scheduler.h"
@@ -570,7 +571,7 @@ ConvergeResult run_converge(const ConvergeOptions &opt_in) {
     j["reference"]["spp"] =
         opt.reference.empty() ? nlohmann::json(opt.reference_spp) : nlohmann::json(nullptr);
     write_text_atomically((dir / "convergence.csv").string(), convergence_csv(r));
-    write_text_atomically((dir / "convergence.json").string(), j.dump(2) + "\n");
+    write_json_atomic((dir / "convergence.json").string(), j);
 
     std::printf("tessera converge: %s, %ux%u, %.3g s per sampler, %u threads\n", opt.scene.c_str(),
                 r.width, r.height, opt.time_s, r.threads);

@@ -15,6 +15,7 @@
 #include <sstream>
 
 #include "renderer/util/image_io.h"
+#include "renderer/util/json_io.h"
 #include "renderer/util/gzip_io.h"
 #include "renderer/integrators/path_integrator.h"
 #include "renderer/input/pbrt_parser.h"
@@ -327,7 +328,7 @@ Reference cached_reference(const Scene &scene, const std::string &scene_path,
     j["version"] = TESSERA_VERSION;
     j["render_s"] = ref.render_s;
     j["dependencies"] = scene_dependencies(scene_path);
-    write_text_atomically(meta.string(), j.dump(2) + "\n");
+    write_json_atomic(meta.string(), j);
     ref.path = exr.string();
     ref.key = key;
     return ref;

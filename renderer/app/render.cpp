@@ -4,12 +4,12 @@
 #include <csignal>
 #include <cstdio>
 #include <filesystem>
-#include <fstream>
 #include <nlohmann/json.hpp>
 #include <sstream>
 
 #include "renderer/app/checkpoint.h"
 #include "renderer/util/image_io.h"
+#include "renderer/util/json_io.h"
 #include "renderer/integrators/integrators.h"
 #include "renderer/integrators/path_integrator.h"
 #include "renderer/app/realtime.h"
@@ -351,13 +351,7 @@ RenderReport run_render(const RenderOptions &opt) {
         }
         j["version"] = TESSERA_VERSION;
         if (!rep.checkpoint_path.empty()) j["checkpoint"] = rep.checkpoint_path;
-        write_atomically(opt.stats_path, [&](const std::string &tmp) {
-            std::ofstream f(tmp);
-            f << j.dump(2) << "\n";
-            // Close before checking: a full disk shows only when the buffer is flushed.
-            f.close();
-            if (f.fail()) throw std::runtime_error(opt.stats_path + ": cannot write");
-        });
+        write_json_atomic(opt.stats_path, j);
     }
     if (!opt.quiet) {
         std::fprintf(stderr, "tessera: %s\ntessera: wrote %s%s%s%s%s\n",
