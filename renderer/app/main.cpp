@@ -109,7 +109,8 @@ void add_render_command(CLI::App &app, RenderCli &c) {
     render->add_option("-o,--output", ro.output,
                        "Output EXR (a display PNG is written beside it); default: the scene's "
                        "Film filename");
-    render->add_option("--spp", c.spp, "Maximum samples per pixel (overrides the scene's pixelsamples)")
+    render->add_option("--spp", c.spp,
+                       "Maximum samples per pixel (overrides the scene's pixelsamples)")
         ->check(CLI::PositiveNumber);
     render->add_option("--resolution", c.resolution, "Film resolution WxH (overrides the scene)");
     render->add_option("--threads", ro.threads, "Worker threads (default: all cores)");
@@ -166,7 +167,8 @@ void add_render_command(CLI::App &app, RenderCli &c) {
     render->add_flag(
         "--no-specialize{all}", c.no_specialize,
         "Force the general code paths (benchmarks): all, or --no-specialize=NAME,... "
-        "of differentials, lambertian, packet, cull, alpha, attributes (renderer/scene/specialize.h)");
+        "of differentials, lambertian, packet, cull, alpha, attributes "
+        "(renderer/scene/specialize.h)");
 }
 
 /// Parses --resolution into `overrides`; false (after the message) when malformed.
@@ -239,7 +241,8 @@ int main(int argc, char **argv) {
         app.add_subcommand("samplers", "List the sampler plugins with their keys and defaults");
 
     std::string diff_a, diff_b;
-    CLI::App *diff = app.add_subcommand("diff", "Compare two images: MSE, RMSE, relMSE, PSNR, means");
+    CLI::App *diff =
+        app.add_subcommand("diff", "Compare two images: MSE, RMSE, relMSE, PSNR, means");
     diff->add_option("test", diff_a, "Image to test")->required();
     diff->add_option("reference", diff_b, "Reference image")->required();
 

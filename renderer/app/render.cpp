@@ -390,8 +390,8 @@ RenderReport run_render(const RenderOptions &opt) {
     auto t_out = std::chrono::steady_clock::now();
     // The per-pixel error estimate (Dammertz) as an AOV beside the sample count.
     sampling::ErrorImage errors;
-    sampling::compute_errors(film, sampling::PixelBounds{0, 0, int(film.width()), int(film.height())},
-                             p.so.min_samples_for_error, errors);
+    const sampling::PixelBounds whole{0, 0, int(film.width()), int(film.height())};
+    sampling::compute_errors(film, whole, p.so.min_samples_for_error, errors);
     p.cs.passes = p.so.start_pass >= 0 ? uint32_t(p.so.start_pass) : rep.passes_total;
     p.cs.elapsed_s = p.elapsed_before + seconds_since(t_render);
     write_outputs(opt, film, errors, out, p.cs, rep);

@@ -12,10 +12,12 @@ void write_json_atomic(const std::string &path, const nlohmann::json &j) {
         std::ofstream f(tmp);
         f << j.dump(2) << "\n";
         f.flush();
-        if (!f) throw std::runtime_error(path + ": cannot write");
+        if (!f)
+            throw std::runtime_error(path + ": cannot write");
         // Close before the last check: a full disk may show only when the buffer is written.
         f.close();
-        if (f.fail()) throw std::runtime_error(path + ": cannot write (closing the file failed)");
+        if (f.fail())
+            throw std::runtime_error(path + ": cannot write (closing the file failed)");
     });
 }
 
