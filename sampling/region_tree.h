@@ -30,6 +30,8 @@
 #include <string>
 #include <vector>
 
+#include "sampling/progressive_settings.h"
+
 namespace tessera::sampling {
 
 /// Half-open integer pixel rectangle [x0, x1) x [y0, y1).
@@ -70,11 +72,12 @@ struct CellErrorImage {
 struct RegionTreeParams {
     double target = 0.01;       ///< region error (dimensionless, see file comment) below
                                 ///< which a region is complete
-    double split_factor = 256;  ///< split only when error < split_factor * target
+    /// Split only when error < split_factor * target.
+    double split_factor = kProgressiveDefaults.split_factor;
     int max_depth = 24;         ///< safety bound on the recursion (root has depth 0)
-    double min_extent = 1.0;    ///< pixels; a split never makes a child narrower than this
-                                ///< along the split axis, so a region splits only when its
-                                ///< longer extent is >= 2 * min_extent
+    /// Pixels; a split never makes a child narrower than this along the split axis, so a
+    /// region splits only when its longer extent is >= 2 * min_extent.
+    double min_extent = kProgressiveDefaults.min_extent;
 };
 
 /// A binary tree over one quadrant. Not thread-safe: callers hold the quadrant's writer lock for

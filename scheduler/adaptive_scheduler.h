@@ -88,6 +88,7 @@
 #include <vector>
 
 #include "sampling/film.h"
+#include "sampling/progressive_settings.h"
 #include "sampling/region_tree.h"
 #include "sampling/sample_source.h"
 #include "scheduler/progress.h"
@@ -112,7 +113,8 @@ struct TileVisit {
 
 /// Settings of the adaptive scheduler.
 struct AdaptiveOptions {
-    uint32_t min_spp = 16;    ///< samples per pixel of the uniform first pass (>= 1)
+    /// Samples per pixel of the uniform first pass (>= 1).
+    uint32_t min_spp = sampling::kProgressiveDefaults.min_spp;
     uint32_t max_spp = 1024;  ///< per-pixel cap (0: unlimited; needs time_s or error_target)
     double time_s = 0;        ///< wall-clock budget in seconds (0: none)
     /// Region error (Dammertz e_b) below which a region is complete; 0: no error stopping
@@ -127,7 +129,7 @@ struct AdaptiveOptions {
     /// of the previous one in the regions it reopens (error ~ 1/sqrt(spp)), so the levels form
     /// a geometric series and the refinement events (a skipped pass and four rebuilds each)
     /// stay few: O(log(budget)).
-    double refine_factor = 0.5;
+    double refine_factor = sampling::kProgressiveDefaults.refine_factor;
     /// No refinement below this target: the render then stops as converged.
     double refine_min_target = 1e-7;
     /// Refining, no pixel takes more than this many times the image's mean samples per pixel
@@ -135,21 +137,24 @@ struct AdaptiveOptions {
     /// (every open pixel capped) counts as complete. Keeps a region that cannot reach the
     /// target (fireflies; a narrow leaf in a tile of frozen errors) from taking the whole
     /// budget. 0: no cap.
-    double refine_spp_ratio = 8;
+    double refine_spp_ratio = sampling::kProgressiveDefaults.refine_spp_ratio;
     /// Refining, pixels below the image's mean samples per pixel / this ratio (as of the last
     /// quadrant rebuild; never above the cap) are sampled even inside completed regions: the
     /// Dammertz estimate of a few dozen samples can call a region complete before it showed a
     /// rare bright path (a small light's silhouette, a caustic). 0: no floor.
-    double refine_floor_ratio = 3;
+    double refine_floor_ratio = sampling::kProgressiveDefaults.refine_floor_ratio;
     bool adaptive = true;        ///< false: uniform passes (every pixel active)
     bool deterministic = false;  ///< barrier between passes: bit-identical for any thread count
     uint32_t threads = 0;        ///< worker threads (0: TBB's default concurrency)
     uint32_t seed = 0;           ///< sequence seed of the film offsets (scheduler/camera_sample.h)
-    uint32_t max_pass_spp = 64;  ///< largest pass in samples per pixel (0: passes keep doubling)
+    /// Largest pass in samples per pixel (0: passes keep doubling).
+    uint32_t max_pass_spp = sampling::kProgressiveDefaults.max_pass_spp;
     /// Accepted samples a pixel needs before it has an error estimate (below: +inf, open).
     uint32_t min_samples_for_error = 4;
-    double split_factor = 256;   ///< RegionTreeParams::split_factor
-    double min_extent = 1;       ///< RegionTreeParams::min_extent: narrowest region, pixels
+    /// RegionTreeParams::split_factor.
+    double split_factor = sampling::kProgressiveDefaults.split_factor;
+    /// RegionTreeParams::min_extent: narrowest region, pixels.
+    double min_extent = sampling::kProgressiveDefaults.min_extent;
     uint32_t lock_stripes = 64;  ///< RW locks per quadrant (rounded to a power of 2, >= 8)
     ProgressReporter::Mode progress = ProgressReporter::Mode::Auto;
     /// Resume at this absolute pass index (checkpoints record it); -1: the first pass some pixel

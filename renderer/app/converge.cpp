@@ -18,9 +18,11 @@
 #include <thread>
 
 #include "renderer/util/image_io.h"
+#include "renderer/util/json_io.h"
 #include "renderer/integrators/path_integrator.h"
 #include "renderer/app/reference.h"
 #include "scheduler/adaptive_scheduler.h"
+#include "scheduler/progressive_run.h"
 
 extern char **environ;
 
@@ -67,15 +69,7 @@ class SamplerRun {
         : film_(uint32_t(scene.settings.width), uint32_t(scene.settings.height), {},
                 keeps_prefix(spec)),
           integrator_(scene, scene.settings.seed, scene.settings.max_depth),
-          options_(scheduler_options(scene, spec, opt.threads, true)) {
-        // Time is the budget: no sample cap unless --spp gives one.
-        options_.max_spp = opt.overrides.spp ? uint32_t(*opt.overrides.spp) : 0;
-        if (options_.max_spp)
-            options_.min_spp = std::min(options_.min_spp, options_.max_spp);
-        // adaptive:refine=1 runs lower their target as regions complete, so they use the whole
-        // budget ("stopped" then means the spp cap or the floor target); refinement is opt-in.
-        apply_refinement(options_, spec);
-    }
+          run_(integrator_, film_, options(scene, spec, opt)) {}
 
     /// Renders until `target_s` seconds of render time in all (unless it stopped by itself),
     /// then takes snapshot `k`: the row and, when `keep` or it stopped, the final images.
@@ -83,19 +77,10 @@ class SamplerRun {
         const double remaining = target_s - render_s_;
         if (remaining > 0 && !stopped_) {
             auto t0 = Clock::now();
-            sched::AdaptiveOptions chunk = options_;
-            chunk.time_s = remaining;
-            // Resume at the first pass some tile has not finished (AdaptiveStats::resume_pass).
-            chunk.start_pass = k == 0 ? -1 : int64_t(passes_);
-            sched::AdaptiveScheduler scheduler(integrator_, film_, chunk);
-            sched::AdaptiveStats st = scheduler.render(nullptr);
+            // Each chunk resumes at the first pass some tile has not finished and from the
+            // refined target (sched::ProgressiveRun).
+            sched::AdaptiveStats st = run_.advance(remaining, nullptr);
             render_s_ += seconds_since(t0);
-            samples_ += st.samples;
-            rays_ += st.rays;
-            passes_ = st.resume_pass;
-            // The next chunk starts from the refined target, not from the first one.
-            if (options_.refine_target)
-                options_.error_target = st.final_error_target;
             // Neither time nor cancel stopped it: converged, or every pass up to --spp done.
             stopped_ = !st.out_of_time;
         }
@@ -110,9 +95,9 @@ class SamplerRun {
         row.snapshot = k;
         row.target_time_s = target_s;
         row.time_s = render_s_;
-        row.samples = samples_;
-        row.rays = rays_;
-        row.passes = passes_;
+        row.samples = run_.total().samples;
+        row.rays = run_.total().rays;
+        row.passes = run_.chunks() ? uint32_t(run_.start_pass()) : 0;
         row.mean_spp = double(film_.total_samples()) / pixels;
         row.coverage =
             double(std::count_if(spp.begin(), spp.end(), [](float v) { return v > 0; })) / pixels;
@@ -131,12 +116,23 @@ class SamplerRun {
     std::vector<float> final_spp;     ///< and its samples per pixel
 
   private:
+    static sched::AdaptiveOptions options(const Scene &scene, const SamplerSpec &spec,
+                                          const ConvergeOptions &opt) {
+        sched::AdaptiveOptions o = scheduler_options(scene, spec, opt.threads, true);
+        // Time is the budget: no sample cap unless --spp gives one.
+        o.max_spp = opt.overrides.spp ? uint32_t(*opt.overrides.spp) : 0;
+        if (o.max_spp)
+            o.min_spp = std::min(o.min_spp, o.max_spp);
+        // adaptive:refine=1 runs lower their target as regions complete, so they use the whole
+        // budget ("stopped" then means the spp cap or the floor target); refinement is opt-in.
+        apply_refinement(o, spec);
+        return o;
+    }
+
     sampling::Film film_;
     PathIntegrator integrator_;
-    sched::AdaptiveOptions options_;
+    sched::ProgressiveRun run_;
     double render_s_ = 0;
-    uint64_t samples_ = 0, rays_ = 0;
-    uint32_t passes_ = 0;
     bool stopped_ = false;
 };
 
@@ -575,7 +571,7 @@ ConvergeResult run_converge(const ConvergeOptions &opt_in) {
     j["reference"]["spp"] =
         opt.reference.empty() ? nlohmann::json(opt.reference_spp) : nlohmann::json(nullptr);
     write_text_atomically((dir / "convergence.csv").string(), convergence_csv(r));
-    write_text_atomically((dir / "convergence.json").string(), j.dump(2) + "\n");
+    write_json_atomic((dir / "convergence.json").string(), j);
 
     std::printf("tessera converge: %s, %ux%u, %.3g s per sampler, %u threads\n", opt.scene.c_str(),
                 r.width, r.height, opt.time_s, r.threads);

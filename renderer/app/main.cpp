@@ -84,39 +84,47 @@ void add_converge_command(CLI::App &app, ConvergeCli &c) {
     cmd->add_flag("-q,--quiet", o.quiet, "No progress lines");
 }
 
-}  // namespace
-
-int main(int argc, char **argv) {
-    CLI::App app{"Tessera: a progressive Monte Carlo path tracer for pbrt-v4 scenes"};
-    app.require_subcommand(1);
-    app.set_version_flag("--version", std::string("tessera ") + TESSERA_VERSION);
-
-    tessera::RenderOptions ro;
+/// `tessera render` and the command-line values that need conversion afterwards.
+struct RenderCli {
+    tessera::RenderOptions options;
     std::string resolution;
     int spp = 0, max_depth = -1;
     long long seed = -1;
-    CLI::App *render = app.add_subcommand("render", "Render a scene (.pbrt, .obj or .ply)");
+    float clamp = 0;
+    std::string sampler_spec = "adaptive";
+    uint32_t min_spp = 0;
+    double error_target = -1;
+    std::string aov_list;
+    CLI::Option *aov_option = nullptr;
+    std::string no_specialize;
+    CLI::App *command = nullptr;
+};
+
+/// Declares `tessera render` and its options on `app`, bound to `c`.
+void add_render_command(CLI::App &app, RenderCli &c) {
+    tessera::RenderOptions &ro = c.options;
+    c.command = app.add_subcommand("render", "Render a scene (.pbrt, .obj or .ply)");
+    CLI::App *render = c.command;
     render->add_option("scene", ro.scene, "Scene file")->required();
     render->add_option("-o,--output", ro.output,
                        "Output EXR (a display PNG is written beside it); default: the scene's "
                        "Film filename");
-    render->add_option("--spp", spp, "Maximum samples per pixel (overrides the scene's pixelsamples)")
+    render->add_option("--spp", c.spp,
+                       "Maximum samples per pixel (overrides the scene's pixelsamples)")
         ->check(CLI::PositiveNumber);
-    render->add_option("--resolution", resolution, "Film resolution WxH (overrides the scene)");
+    render->add_option("--resolution", c.resolution, "Film resolution WxH (overrides the scene)");
     render->add_option("--threads", ro.threads, "Worker threads (default: all cores)");
-    render->add_option("--seed", seed, "Sequence seed")->check(CLI::NonNegativeNumber);
-    render->add_option("--max-depth", max_depth, "Maximum path depth (overrides the scene)")
+    render->add_option("--seed", c.seed, "Sequence seed")->check(CLI::NonNegativeNumber);
+    render->add_option("--max-depth", c.max_depth, "Maximum path depth (overrides the scene)")
         ->check(CLI::NonNegativeNumber);
-    float clamp = 0;
-    render->add_option("--clamp", clamp,
+    render->add_option("--clamp", c.clamp,
                        "Firefly clamp: scale each sample down so that its largest RGB component "
                        "is at most VALUE (biased; default off, or the scene's Film "
                        "\"maxcomponentvalue\")")
         ->check(CLI::PositiveNumber);
     render->add_option("--time", ro.time_s, "Wall-clock budget in seconds (0: none)")
         ->check(CLI::NonNegativeNumber);
-    std::string sampler_spec = "adaptive";
-    render->add_option("--sampler", sampler_spec,
+    render->add_option("--sampler", c.sampler_spec,
                        "NAME[:key=value,...]: uniform | adaptive (default) | fixed | jin | kim | "
                        "fliptri | flipquad | suffern; `tessera samplers` lists their keys");
     render->add_option("--integrator", ro.integrator,
@@ -126,12 +134,10 @@ int main(int argc, char **argv) {
         ->check(CLI::PositiveNumber);
     render->add_option("--orbit", ro.orbit_deg,
                        "Real-time samplers: orbit the camera by DEGREES over the frames");
-    uint32_t min_spp = 0;
-    render->add_option("--min-spp", min_spp,
+    render->add_option("--min-spp", c.min_spp,
                        "Samples per pixel of the uniform first pass (default 16)")
         ->check(CLI::PositiveNumber);
-    double error_target = -1;
-    render->add_option("--error", error_target,
+    render->add_option("--error", c.error_target,
                        "Adaptive stopping: region error target (Dammertz; 0: none)")
         ->check(CLI::NonNegativeNumber);
     render->add_flag("--deterministic", ro.deterministic,
@@ -145,31 +151,98 @@ int main(int argc, char **argv) {
         ->check(CLI::NonNegativeNumber);
     render->add_option("--resume", ro.resume, "Continue from a checkpoint EXR");
     render->add_option("--stats", ro.stats_path, "Write render statistics as JSON");
-    std::string aov_list;
-    CLI::Option *aov_option = render->add_option(
-        "--aov", aov_list,
+    c.aov_option = render->add_option(
+        "--aov", c.aov_list,
         "AOV layers to keep and write: a comma list of albedo, normal, depth, or all, or none "
         "(default: the scene's Film, \"gbuffer\" all, \"rgb\" none; --resume keeps the "
         "checkpoint's)");
     render->add_flag("--half", ro.half, "Write half-float EXR colour channels");
-    render->add_flag("--no-png", [&](int64_t) { ro.write_png = false; }, "Do not write the PNG");
+    render->add_flag("--no-png", [&ro](int64_t) { ro.write_png = false; }, "Do not write the PNG");
     render->add_option("--ocio-config", ro.display.config_path,
                        "OpenColorIO config for the PNG (default: $OCIO, else built in sRGB)");
     render->add_option("--display", ro.display.display, "OCIO display (default: the config's)");
     render->add_option("--view", ro.display.view, "OCIO view (default: the display's)");
     render->add_option("--exposure", ro.display.exposure_stops, "PNG exposure in stops");
     render->add_flag("-q,--quiet", ro.quiet, "No progress bar or summary");
-    std::string no_specialize;
     render->add_flag(
-        "--no-specialize{all}", no_specialize,
+        "--no-specialize{all}", c.no_specialize,
         "Force the general code paths (benchmarks): all, or --no-specialize=NAME,... "
-        "of differentials, lambertian, packet, cull, alpha, attributes (renderer/scene/specialize.h)");
+        "of differentials, lambertian, packet, cull, alpha, attributes "
+        "(renderer/scene/specialize.h)");
+}
+
+/// Parses --resolution into `overrides`; false (after the message) when malformed.
+bool apply_resolution(const std::string &resolution, tessera::SceneOverrides &overrides) {
+    if (resolution.empty()) return true;
+    int w, h;
+    if (!parse_resolution(resolution, &w, &h)) {
+        std::fprintf(stderr, "tessera: --resolution: expected WxH, got \"%s\"\n",
+                     resolution.c_str());
+        return false;
+    }
+    overrides.width = w;
+    overrides.height = h;
+    return true;
+}
+
+/// Runs `tessera converge` with the parsed command line; returns the exit code.
+int run_converge_command(ConvergeCli &c) {
+    tessera::ConvergeOptions &o = c.options;
+    if (!apply_resolution(c.resolution, o.overrides)) return 2;
+    if (c.spp > 0) o.overrides.spp = c.spp;
+    if (c.max_depth >= 0) o.overrides.max_depth = c.max_depth;
+    if (c.seed >= 0) o.overrides.seed = uint32_t(c.seed);
+    tessera::run_converge(o);
+    return 0;
+}
+
+/// Runs `tessera render` with the parsed command line; returns the exit code.
+int run_render_command(RenderCli &c) {
+    tessera::RenderOptions &ro = c.options;
+    if (!apply_resolution(c.resolution, ro.overrides)) return 2;
+    if (c.spp > 0) ro.overrides.spp = c.spp;
+    ro.sampler = tessera::parse_sampler_spec(c.sampler_spec);
+    if (c.min_spp > 0) ro.min_spp = c.min_spp;
+    if (c.error_target >= 0) ro.error = c.error_target;
+    if (c.max_depth >= 0) ro.overrides.max_depth = c.max_depth;
+    if (c.seed >= 0) ro.overrides.seed = uint32_t(c.seed);
+    if (c.clamp > 0) ro.overrides.max_component = c.clamp;
+    if (!c.no_specialize.empty()) {
+        try {
+            ro.no_specialize = tessera::parse_specializations(c.no_specialize);
+        } catch (const std::invalid_argument &e) {
+            std::fprintf(stderr, "tessera: --no-specialize: %s\n", e.what());
+            return 2;
+        }
+    }
+    if (c.aov_option->count() > 0) {
+        try {
+            ro.overrides.aovs = tessera::sampling::AovSet::parse(c.aov_list);
+        } catch (const std::invalid_argument &e) {
+            std::fprintf(stderr, "tessera: --aov: %s\n", e.what());
+            return 2;
+        }
+    }
+    tessera::run_render(ro);
+    return 0;
+}
+
+}  // namespace
+
+int main(int argc, char **argv) {
+    CLI::App app{"Tessera: a progressive Monte Carlo path tracer for pbrt-v4 scenes"};
+    app.require_subcommand(1);
+    app.set_version_flag("--version", std::string("tessera ") + TESSERA_VERSION);
+
+    RenderCli render;
+    add_render_command(app, render);
 
     CLI::App *samplers =
         app.add_subcommand("samplers", "List the sampler plugins with their keys and defaults");
 
     std::string diff_a, diff_b;
-    CLI::App *diff = app.add_subcommand("diff", "Compare two images: MSE, RMSE, relMSE, PSNR, means");
+    CLI::App *diff =
+        app.add_subcommand("diff", "Compare two images: MSE, RMSE, relMSE, PSNR, means");
     diff->add_option("test", diff_a, "Image to test")->required();
     diff->add_option("reference", diff_b, "Reference image")->required();
 
@@ -189,61 +262,8 @@ int main(int argc, char **argv) {
             std::cout << tessera::sampling::format_plugin_list();
             return 0;
         }
-        if (*converge.command) {
-            tessera::ConvergeOptions &o = converge.options;
-            if (!converge.resolution.empty()) {
-                int w, h;
-                if (!parse_resolution(converge.resolution, &w, &h)) {
-                    std::fprintf(stderr, "tessera: --resolution: expected WxH, got \"%s\"\n",
-                                 converge.resolution.c_str());
-                    return 2;
-                }
-                o.overrides.width = w;
-                o.overrides.height = h;
-            }
-            if (converge.spp > 0) o.overrides.spp = converge.spp;
-            if (converge.max_depth >= 0) o.overrides.max_depth = converge.max_depth;
-            if (converge.seed >= 0) o.overrides.seed = uint32_t(converge.seed);
-            tessera::run_converge(o);
-            return 0;
-        }
-        if (*render) {
-            if (!resolution.empty()) {
-                int w, h;
-                if (!parse_resolution(resolution, &w, &h)) {
-                    std::fprintf(stderr, "tessera: --resolution: expected WxH, got \"%s\"\n",
-                                 resolution.c_str());
-                    return 2;
-                }
-                ro.overrides.width = w;
-                ro.overrides.height = h;
-            }
-            if (spp > 0) ro.overrides.spp = spp;
-            ro.sampler = tessera::parse_sampler_spec(sampler_spec);
-            if (min_spp > 0) ro.min_spp = min_spp;
-            if (error_target >= 0) ro.error = error_target;
-            if (max_depth >= 0) ro.overrides.max_depth = max_depth;
-            if (seed >= 0) ro.overrides.seed = uint32_t(seed);
-            if (clamp > 0) ro.overrides.max_component = clamp;
-            if (!no_specialize.empty()) {
-                try {
-                    ro.no_specialize = tessera::parse_specializations(no_specialize);
-                } catch (const std::invalid_argument &e) {
-                    std::fprintf(stderr, "tessera: --no-specialize: %s\n", e.what());
-                    return 2;
-                }
-            }
-            if (aov_option->count() > 0) {
-                try {
-                    ro.overrides.aovs = tessera::sampling::AovSet::parse(aov_list);
-                } catch (const std::invalid_argument &e) {
-                    std::fprintf(stderr, "tessera: --aov: %s\n", e.what());
-                    return 2;
-                }
-            }
-            tessera::run_render(ro);
-            return 0;
-        }
+        if (*converge.command) return run_converge_command(converge);
+        if (*render.command) return run_render_command(render);
     } catch (const tessera::SceneError &e) {
         std::fprintf(stderr, "%s\n", e.what());
         return 2;

@@ -6,11 +6,11 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
-#include <fstream>
 #include <map>
 #include <nlohmann/json.hpp>
 
 #include "renderer/util/image_io.h"
+#include "renderer/util/json_io.h"
 #include "renderer/scene/specialize.h"
 #include "renderer/integrators/whitted_integrator.h"
 #include "scheduler/frame_scheduler.h"
@@ -202,11 +202,7 @@ void run_frames(const RenderOptions &opt, Scene &scene, const SamplerSpec &sampl
         j["peak_rss_bytes"] = rep.peak_rss_bytes;
         j["features"] = scene.features.describe();
         j["version"] = TESSERA_VERSION;
-        write_atomically(opt.stats_path, [&](const std::string &tmp) {
-            std::ofstream f(tmp);
-            f << j.dump(2) << "\n";
-            if (!f) throw std::runtime_error(opt.stats_path + ": cannot write");
-        });
+        write_json_atomic(opt.stats_path, j);
     }
     if (!opt.quiet)
         std::fprintf(stderr,

@@ -15,11 +15,13 @@
 #include <sstream>
 
 #include "renderer/util/image_io.h"
+#include "renderer/util/json_io.h"
 #include "renderer/util/gzip_io.h"
 #include "renderer/integrators/path_integrator.h"
 #include "renderer/input/pbrt_parser.h"
 #include "renderer/app/render.h"
 #include "scheduler/adaptive_scheduler.h"
+#include "scheduler/progressive_run.h"
 
 namespace tessera {
 
@@ -262,14 +264,12 @@ Reference render_reference(const Scene &scene, const ReferenceSettings &s) {
     for (uint32_t k = 0; k < 2; ++k) {
         sampling::Film film(s.width, s.height);
         PathIntegrator integrator(scene, s.seed + k, s.max_depth);
-        SamplerSpec uniform;
-        uniform.name = "uniform";
-        sched::AdaptiveOptions o = scheduler_options(scene, uniform, s.threads, s.quiet);
+        sched::AdaptiveOptions o = uniform_scheduler_options(scene, s.threads, s.quiet);
         o.max_spp = half_spp;
         o.min_spp = std::min(o.min_spp, o.max_spp);
         o.seed = s.seed + k;
         o.deterministic = true;
-        sched::AdaptiveScheduler(integrator, film, o).render(nullptr);
+        sched::ProgressiveRun(integrator, film, o).advance(0, nullptr);
         halves[k] = film.beauty_rgb();
     }
     Reference ref;
@@ -328,7 +328,7 @@ Reference cached_reference(const Scene &scene, const std::string &scene_path,
     j["version"] = TESSERA_VERSION;
     j["render_s"] = ref.render_s;
     j["dependencies"] = scene_dependencies(scene_path);
-    write_text_atomically(meta.string(), j.dump(2) + "\n");
+    write_json_atomic(meta.string(), j);
     ref.path = exr.string();
     ref.key = key;
     return ref;

@@ -32,6 +32,10 @@ void apply_refinement(sched::AdaptiveOptions &o, const SamplerSpec &sampler);
 /// (sampling::Film keep_prefix): an adaptive sampler with prefix-error=1.
 bool keeps_prefix(const SamplerSpec &sampler);
 
+/// Scheduler options of a uniform render of `scene` to its spp (render_scene, the references).
+sched::AdaptiveOptions uniform_scheduler_options(const Scene &scene, uint32_t threads,
+                                                 bool quiet);
+
 /// Renders `scene` into `film` with uniform sampling to the scene's spp (tests, benchmarks);
 /// `cancel` may stop it early.
 sched::AdaptiveStats render_scene(const Scene &scene, sampling::Film &film, uint32_t threads,

@@ -17,7 +17,7 @@ std::string SamplerSpec::describe() const {
         // Only when given: checkpoints compare this line, and older ones do not have it.
         if (refine)
             os << ",refine=" << (*refine ? 1 : 0);
-        const sched::AdaptiveOptions d;  // the defaults, left out of the line
+        const sampling::ProgressiveSettings &d = sampling::kProgressiveDefaults;  // left out
         if (refine_factor != d.refine_factor) os << ",refine-factor=" << refine_factor;
         if (refine_spp_ratio != d.refine_spp_ratio) os << ",refine-spp-ratio=" << refine_spp_ratio;
         if (refine_floor_ratio != d.refine_floor_ratio)

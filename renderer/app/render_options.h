@@ -10,24 +10,26 @@
 #include "renderer/util/color.h"
 #include "renderer/scene/scene.h"
 #include "sampling/pixel_sampler.h"
+#include "sampling/progressive_settings.h"
 #include "scheduler/adaptive_scheduler.h"
 
 namespace tessera {
 
 /// Default region error target of the adaptive sampler (Dammertz e_b; see
-/// sampling/region_tree.h). Chosen with scripts/bench_adaptive.py (now `tessera converge`).
-inline constexpr double kDefaultErrorTarget = 0.001;
+/// sampling/region_tree.h and sampling/progressive_settings.h).
+inline constexpr double kDefaultErrorTarget = sampling::kProgressiveDefaults.error;
 
 /// Starting region error target of a refining adaptive render with no explicit error (a time
-/// budget and no `--error` / `error=`): loose, so that the easy regions stop early and the
-/// target then falls by refine-factor each time every region is complete (see
-/// sched::AdaptiveOptions::refine_target; measured in the refinement note of the adaptive issue).
-inline constexpr double kDefaultRefineStartTarget = 0.01;
+/// budget and no `--error` / `error=`; see sched::AdaptiveOptions::refine_target and
+/// sampling/progressive_settings.h).
+inline constexpr double kDefaultRefineStartTarget =
+    sampling::kProgressiveDefaults.refine_start_error;
 
 /// A sampler selection: any registered plugin (sampling/pixel_sampler.h; `tessera samplers`
 /// lists them), e.g. `uniform`, `adaptive[:error=E,min-spp=N,...]` (progressive, run by the
 /// adaptive scheduler) or `jin:tau_col=0.6` (a real-time frame plugin). For the progressive
-/// samplers the fields below hold the parsed values.
+/// samplers the fields below hold the parsed values; their defaults are the registry's
+/// (sampling/progressive_settings.h).
 struct SamplerSpec {
     std::string name = "adaptive";
     /// The parsed plugin and all its parameters (defaults filled in). Empty info: "adaptive"
@@ -39,20 +41,17 @@ struct SamplerSpec {
     }
     std::optional<double> error;
     std::optional<uint32_t> min_spp;
-    uint32_t max_pass_spp = 64;
-    double split_factor = 256;
-    /// Narrowest region a split may create, pixels. One tile: narrower leaves chase the noise
-    /// of single pixels' error estimates (salt-and-pepper sample maps; measured in the notes).
-    double min_extent = 8;
-    /// adaptive:refine=0|1; unset: off (opt-in, see apply_refinement and the note of the
-    /// adaptive issue: it helps some scenes and hurts others).
+    uint32_t max_pass_spp = sampling::kProgressiveDefaults.max_pass_spp;
+    double split_factor = sampling::kProgressiveDefaults.split_factor;
+    /// Narrowest region a split may create, pixels (ProgressiveSettings::min_extent).
+    double min_extent = sampling::kProgressiveDefaults.min_extent;
+    /// adaptive:refine=0|1; unset: off (opt-in, see apply_refinement: it helps some scenes
+    /// and hurts others).
     std::optional<bool> refine;
-    // The refinement keys default to the scheduler's own defaults (the plugin registry in
-    // sampling/pixel_sampler.cpp repeats them; a test checks that they agree).
     // adaptive:refine-factor, refine-spp-ratio, refine-floor-ratio.
-    double refine_factor = sched::AdaptiveOptions{}.refine_factor;
-    double refine_spp_ratio = sched::AdaptiveOptions{}.refine_spp_ratio;
-    double refine_floor_ratio = sched::AdaptiveOptions{}.refine_floor_ratio;
+    double refine_factor = sampling::kProgressiveDefaults.refine_factor;
+    double refine_spp_ratio = sampling::kProgressiveDefaults.refine_spp_ratio;
+    double refine_floor_ratio = sampling::kProgressiveDefaults.refine_floor_ratio;
     /// adaptive:prefix-error=1: pixel errors compare the mean with the mean of the pixel's
     /// first 2^k samples instead of the half buffer (sampling/adaptive_error.h); the film then
     /// keeps prefix snapshots (keeps_prefix). Unset: on exactly when refining (refine=1).

@@ -1,5 +1,5 @@
 // The built-in frame plugins (sampling/pixel_sampler.h). Each file of this folder defines one
-// `*_plugin_info()`; sampling/pixel_sampler.cpp lists them in the registry.
+// `*_plugin_info()`; sampling/plugins/registry.cpp lists them in the registry.
 #pragma once
 
 #include "sampling/pixel_sampler.h"

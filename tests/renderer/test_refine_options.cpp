@@ -93,17 +93,3 @@ TEST_CASE("adaptive:prefix-error: on by default exactly when refining, recorded 
     CHECK_THROWS_AS(parse_sampler_spec("adaptive:prefix-error=2"), SceneError);
     CHECK_THROWS_AS(parse_sampler_spec("uniform:prefix-error=1"), SceneError);
 }
-
-TEST_CASE("adaptive: the registry's refinement defaults are the scheduler's") {
-    // Parsing fills every key from the plugin registry; a default-constructed spec and the
-    // settings line (describe) use sched::AdaptiveOptions. They must agree.
-    const sched::AdaptiveOptions d;
-    const SamplerSpec parsed = parse_sampler_spec("adaptive");
-    CHECK(parsed.refine_factor == d.refine_factor);
-    CHECK(parsed.refine_spp_ratio == d.refine_spp_ratio);
-    CHECK(parsed.refine_floor_ratio == d.refine_floor_ratio);
-    const SamplerSpec plain;
-    CHECK(plain.refine_spp_ratio == d.refine_spp_ratio);
-    CHECK(plain.refine_floor_ratio == d.refine_floor_ratio);
-    CHECK(parsed.describe() == plain.describe());
-}

@@ -19,6 +19,13 @@ using namespace tessera::sampling;
 
 namespace {
 
+// Regions may split down to single pixels (the samplers' default min_extent is one tile).
+RegionTreeParams fine_params() {
+    RegionTreeParams p;
+    p.min_extent = 1;
+    return p;
+}
+
 constexpr float kInfF = std::numeric_limits<float>::infinity();
 
 ErrorImage make_image(int w, int h, float e) {
@@ -151,7 +158,7 @@ TEST_CASE("construction, state before the first rebuild, describe") {
 TEST_CASE("uniform low error: one complete root") {
     ErrorImage img = make_image(64, 48, 0.001f);
     RegionTree t({0, 0, 32, 24}, {0, 0, 40, 32}, 64 * 48);
-    RegionTreeParams p;
+    RegionTreeParams p = fine_params();
     p.target = 0.01;
     CHECK(t.rebuild(img, p) == 1);
     CHECK(t.complete());
@@ -173,7 +180,7 @@ TEST_CASE("random error images: leaves partition the root; errors match the refe
         PixelBounds quad = whole ? PixelBounds{0, 0, w, h} : PixelBounds{48, 0, 96, 32};
         PixelBounds grown = whole ? quad : PixelBounds{40, 0, 96, 40};
         RegionTree t(quad, grown, double(w) * h);
-        RegionTreeParams p;
+        RegionTreeParams p = fine_params();
         p.target = 0.004;
         size_t n = t.rebuild(img, p);
         CHECK(n == t.nodes().size());
@@ -221,7 +228,7 @@ TEST_CASE("splits are floating point and divide the error equally") {
     const int w = 128, h = 96;
     ErrorImage img = random_image(w, h, 42);
     RegionTree t({0, 0, w, h}, {0, 0, w, h}, double(w) * h);
-    RegionTreeParams p;
+    RegionTreeParams p = fine_params();
     p.target = 0.003;
     t.rebuild(img, p);
     int splits = 0, fractional = 0, checked = 0;
@@ -261,7 +268,7 @@ TEST_CASE("error in one corner: the split moves to the corner and the tree local
         for (int x = 0; x < 16; ++x)
             at(img, x, y) = 10.f;
     RegionTree t({0, 0, n, n}, {0, 0, n, n}, double(n) * n);
-    RegionTreeParams p;
+    RegionTreeParams p = fine_params();
     p.target = 0.01;
     t.rebuild(img, p);
     check_partition(t);
@@ -298,7 +305,7 @@ TEST_CASE("error in one corner: the split moves to the corner and the tree local
 TEST_CASE("an unknown pixel keeps its region open and unsplit") {
     const int w = 64, h = 64;
     ErrorImage img = random_image(w, h, 7);
-    RegionTreeParams p;
+    RegionTreeParams p = fine_params();
     p.target = 0.004;
     RegionTree t({0, 0, w, h}, {0, 0, w, h}, double(w) * h);
     REQUIRE(t.rebuild(img, p) > 1);
@@ -334,7 +341,7 @@ TEST_CASE("active_rects and pixel_active agree with the leaves") {
     ErrorImage img = random_image(w, h, 3);
     const PixelBounds quad{48, 32, 96, 72}, grown{40, 24, 96, 72};
     RegionTree t(quad, grown, double(w) * h);
-    RegionTreeParams p;
+    RegionTreeParams p = fine_params();
     p.target = 0.004;
     t.rebuild(img, p);
     REQUIRE(!t.complete());
@@ -400,7 +407,7 @@ TEST_CASE("a firefly in a complete region reopens it on rebuild") {
     const int n = 64;
     ErrorImage img = make_image(n, n, 0.001f);
     RegionTree t({0, 0, n, n}, {0, 0, n, n}, double(n) * n);
-    RegionTreeParams p;
+    RegionTreeParams p = fine_params();
     p.target = 0.01;
     t.rebuild(img, p);
     REQUIRE(t.complete());
@@ -424,7 +431,7 @@ TEST_CASE("split clamping and depth limits") {
     for (int y = 0; y < h; ++y)
         at(img, 0, y) = 1.f;
     RegionTree t({0, 0, w, h}, {0, 0, w, h}, double(w) * h);
-    RegionTreeParams p;
+    RegionTreeParams p = fine_params();
     p.target = 0.01;
     p.min_extent = 4;
     t.rebuild(img, p);
@@ -486,7 +493,7 @@ TEST_CASE("rebuild_cells with one-pixel cells builds the per-pixel tree") {
     ErrorImage img = random_image(53, 41, 5);
     const PixelBounds quad{8, 8, 45, 33}, grown{0, 0, 53, 41};
     RegionTree a(quad, grown, 53.0 * 41), b(quad, grown, 53.0 * 41);
-    RegionTreeParams p;
+    RegionTreeParams p = fine_params();
     p.target = 0.004;
     a.rebuild(img, p);
     b.rebuild_cells(cells_of(img, grown, 1), p);
@@ -510,7 +517,7 @@ TEST_CASE("rebuild_cells equals rebuild on an error image constant inside its 8x
             for (int y = 8; y < 16; ++y)
                 for (int x = 24; x < 32; ++x) at(blocky, x, y) = kInfF;
         RegionTree a(quad, grown, 53.0 * 41), b(quad, grown, 53.0 * 41);
-        RegionTreeParams p;
+        RegionTreeParams p = fine_params();
         p.target = seed == 1 ? 0.002 : 0.02;
         p.min_extent = 2;
         a.rebuild(blocky, p);
@@ -545,11 +552,11 @@ TEST_CASE("rebuild_cells rejects a cell grid that does not cover the grown recta
     cells.rows = 3;
     cells.sum.assign(6, 0.0);
     cells.unknown.assign(6, 0u);
-    CHECK_THROWS_AS(t.rebuild_cells(cells, RegionTreeParams{}), std::invalid_argument);
+    CHECK_THROWS_AS(t.rebuild_cells(cells, fine_params()), std::invalid_argument);
     cells.cols = 3;
     cells.sum.assign(9, 0.0);
     cells.unknown.assign(9, 0u);
-    CHECK(t.rebuild_cells(cells, RegionTreeParams{}) == 1);
+    CHECK(t.rebuild_cells(cells, fine_params()) == 1);
     CHECK(t.complete());
 }
 
@@ -558,7 +565,7 @@ TEST_CASE("rebuild time of a 960x540 quadrant of a 1920x1080 image") {
     ErrorImage img = random_image(w, h, 11);
     const PixelBounds quad{0, 0, 960, 540}, grown{0, 0, 968, 548};
     RegionTree t(quad, grown, double(w) * h);
-    RegionTreeParams p;
+    RegionTreeParams p = fine_params();
     p.target = 0.002;
     t.rebuild(img, p);  // warm-up: allocates the tables
     // Min and median over repetitions: the minimum is the figure least disturbed by other
@@ -620,7 +627,7 @@ TEST_CASE("extreme sizes and error magnitudes keep valid floating-point splits")
             CAPTURE(e);
             ErrorImage img = make_image(1, 1, e);
             RegionTree t({0, 0, 1, 1}, {0, 0, 1, 1}, 1.0);
-            RegionTreeParams p;
+            RegionTreeParams p = fine_params();
             p.target = 1e-9;
             CHECK(t.rebuild(img, p) == 1);  // one pixel never splits
             check_valid(t);
@@ -640,7 +647,7 @@ TEST_CASE("extreme sizes and error magnitudes keep valid floating-point splits")
             for (int y = 0; y < h; ++y)
                 for (int x = 30000; x < 30003; ++x) at(img, x, y) = float(1e3 * scale);
             RegionTree t({0, 0, 32768, 2}, {0, 0, 32776, 4}, double(w) * h);
-            RegionTreeParams p;
+            RegionTreeParams p = fine_params();
             p.target = 1e-4 * scale;
             p.split_factor = 1e12;  // always localise
             size_t nodes = t.rebuild(img, p);

@@ -26,6 +26,7 @@ AdaptiveOptions quiet(uint32_t threads) {
     o.threads = threads;
     o.seed = 99;
     o.progress = ProgressReporter::Mode::Never;
+    o.min_extent = 1;  // split down to single pixels (the samplers' default: one tile)
     return o;
 }
 

@@ -41,6 +41,7 @@ AdaptiveOptions base_options(uint32_t threads) {
     o.max_spp = 64;
     o.max_pass_spp = 16;
     o.error_target = 0.002;
+    o.min_extent = 1;  // split down to single pixels (the samplers' default: one tile)
     return o;
 }
 

@@ -44,6 +44,7 @@ TEST_CASE("chunks that stop mid-pass resume at resume_pass and cover every pixel
         o.min_spp = 16;
         o.max_spp = 4096;
         o.deterministic = deterministic;
+        o.min_extent = 1;  // split down to single pixels (the samplers' default: one tile)
         std::atomic<bool> cancel{false};
         int64_t start = -1;
         for (int chunk = 0; chunk < 4; ++chunk) {
@@ -81,6 +82,7 @@ TEST_CASE("resume_pass equals first_pass + passes when the passes complete") {
     o.progress = ProgressReporter::Mode::Never;
     o.adaptive = false;
     o.max_spp = 64;
+    o.min_extent = 1;  // split down to single pixels (the samplers' default: one tile)
     AdaptiveStats s = AdaptiveScheduler(src, film, o).render();
     CHECK(s.passes == AdaptiveScheduler::pass_count(o));
     CHECK(s.resume_pass == s.first_pass + s.passes);

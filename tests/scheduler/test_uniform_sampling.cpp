@@ -142,6 +142,7 @@ AdaptiveOptions uniform(uint32_t threads, uint32_t spp, bool deterministic = fal
     o.min_spp = 1;
     o.max_spp = spp;
     o.max_pass_spp = 0;
+    o.min_extent = 1;  // split down to single pixels (the samplers' default: one tile)
     return o;
 }
 
