@@ -192,64 +192,41 @@ inline vf power_heuristic(vf pdf_a, vf pdf_b) {
 }
 
 // The sampler's values for 8 lanes: SobolSampler::get_1d / get_2d of each lane's pixel hash,
-// dimension and bit-reversed sample index (sampling/sequence.h), the same integer operations.
+// dimension and bit-reversed sample index, by the same integer steps (sampling::lanes in
+// sampling/sequence.h, instantiated for 8-lane vectors).
 
-inline vu mix_bits(vu x) {
-    x ^= x >> 16;
-    x *= 0x7feb352du;
-    x ^= x >> 15;
-    x *= 0x846ca68bu;
-    x ^= x >> 16;
-    return x;
-}
-inline vu reverse_bits(vu v) {
-    v = (v >> 24) | ((v >> 8) & 0x0000ff00u) | ((v << 8) & 0x00ff0000u) | (v << 24);
-    v = ((v >> 4) & 0x0f0f0f0fu) | ((v & 0x0f0f0f0fu) << 4);
-    v = ((v >> 2) & 0x33333333u) | ((v & 0x33333333u) << 2);
-    v = ((v >> 1) & 0x55555555u) | ((v & 0x55555555u) << 1);
-    return v;
-}
-inline vu laine_karras(vu x, vu seed) {
-    x ^= x * 0x3d20adeau;
-    x += seed;
-    x *= (seed >> 16) | 1u;
-    x ^= x * 0x05526c56u;
-    x ^= x * 0x53a22864u;
-    return x;
-}
 inline vf fixed_to_unit(vu x) {
     const vf f = __builtin_convertvector((vi)(x >> 8), vf) * 0x1p-24f;
     return vmin(f, splat(kOneMinusEpsilon));
 }
-inline vu hash_dimension(vu pixel_hash, vu dim) {
-    return mix_bits(pixel_hash ^ (dim * 0xc2b2ae35u + 0x27d4eb2fu));
-}
 
 vf sobol_1d(vu pixel_hash, vu dim, vu index_rev) {
-    const vu h = hash_dimension(pixel_hash, dim);
-    const vu z = laine_karras(index_rev, mix_bits(h ^ 0x68bc21ebu));
-    return fixed_to_unit(reverse_bits(laine_karras(reverse_bits(z), mix_bits(h + 1u))));
+    const vu h = sampling::lanes::hash_dimension(pixel_hash, dim);
+    return fixed_to_unit(sampling::lanes::sobol_1d_rev(h, index_rev));
 }
 
-void sobol_2d(vu pixel_hash, vu dim, vu index_rev, vf &ux, vf &uy) {
-    const vu h = hash_dimension(pixel_hash, dim);
-    const vu z = laine_karras(index_rev, mix_bits(h ^ 0x68bc21ebu));
-    const vu x_rev = laine_karras(reverse_bits(z), mix_bits(h + 1u));
-    // sampling::sobol_dim1_reversed: four byte-indexed tables, XORed.
+// sampling::sobol_dim1_reversed: four byte-indexed tables, XORed.
+inline vu sobol_dim1_reversed(vu z) {
 #ifdef __AVX2__
     const auto &table = sampling::detail::kSobolDim1ReversedTable;
     auto gather = [](const uint32_t *t, vu idx) {
         return (vu)_mm256_i32gather_epi32(reinterpret_cast<const int *>(t), (__m256i)idx, 4);
     };
-    const vu d1 = gather(table[0].data(), z & 0xffu) ^ gather(table[1].data(), (z >> 8) & 0xffu) ^
-                  gather(table[2].data(), (z >> 16) & 0xffu) ^ gather(table[3].data(), z >> 24);
+    return gather(table[0].data(), z & 0xffu) ^ gather(table[1].data(), (z >> 8) & 0xffu) ^
+           gather(table[2].data(), (z >> 16) & 0xffu) ^ gather(table[3].data(), z >> 24);
 #else
     vu d1 = z;
     for (int i = 0; i < kLanes; ++i) d1[i] = sampling::sobol_dim1_reversed(z[i]);
+    return d1;
 #endif
-    const vu y_rev = laine_karras(d1, mix_bits(h + 2u));
-    ux = fixed_to_unit(reverse_bits(x_rev));
-    uy = fixed_to_unit(reverse_bits(y_rev));
+}
+
+void sobol_2d(vu pixel_hash, vu dim, vu index_rev, vf &ux, vf &uy) {
+    const vu h = sampling::lanes::hash_dimension(pixel_hash, dim);
+    vu x_rev, y_rev;
+    sampling::lanes::sobol_2d_rev(h, index_rev, sobol_dim1_reversed, x_rev, y_rev);
+    ux = fixed_to_unit(sampling::lanes::reverse_bits(x_rev));
+    uy = fixed_to_unit(sampling::lanes::reverse_bits(y_rev));
 }
 
 /// sampling::square_to_cosine_hemisphere (concentric map, sincos_quarter_pi), lane by lane.
@@ -446,10 +423,8 @@ void PathIntegrator::trace_packet(std::span<const CameraSample> samples,
         cam.d = div(dw, vsqrt(dot(dw, dw)));
         cam.o = {splat(m[0][3]), splat(m[1][3]), splat(m[2][3])};
         cam.weight = splat(1.f);
-        // sampling::hash_pixel
-        const vu h = mix_bits(splat_u(sampling::mix_bits_32(seed_ ^ 0x9e3779b9u)) ^ px);
-        cam.pixel_hash = mix_bits((h + 0x85ebca6bu) ^ py);
-        cam.index_rev = reverse_bits(index);
+        cam.pixel_hash = sampling::lanes::hash_pixel(seed_, px, py);
+        cam.index_rev = sampling::lanes::reverse_bits(index);
         cam.dim = splat_u(pinhole_dim);
     };
     // Starts the next sample with a camera ray in lane i (or leaves the lane empty).
