@@ -34,8 +34,15 @@ inline constexpr uint32_t kPixelDimension = 0;
 /// First dimension handed out by get_1d / get_2d after start_pixel_sample().
 inline constexpr uint32_t kFirstFreeDimension = 2;
 
+/// The integer steps of the scramble, written once for any 32-bit unsigned word type W: uint32_t
+/// (the functions below) or a GCC vector of uint32_t, whose operators act lane by lane with the
+/// same wrap-around arithmetic (the 8-lane path tracer, renderer/integrators/path_packet.cpp).
+/// Both therefore compute bit-identical values.
+namespace lanes {
+
 /// Reverses the 32 bits of v (byte swap, then nibbles, pairs and bits within each byte).
-inline constexpr uint32_t reverse_bits_32(uint32_t v) {
+template <class W>
+[[gnu::always_inline]] inline constexpr W reverse_bits(W v) {
     v = (v >> 24) | ((v >> 8) & 0x0000ff00u) | ((v << 8) & 0x00ff0000u) | (v << 24);
     v = ((v >> 4) & 0x0f0f0f0fu) | ((v & 0x0f0f0f0fu) << 4);
     v = ((v >> 2) & 0x33333333u) | ((v & 0x33333333u) << 2);
@@ -44,7 +51,8 @@ inline constexpr uint32_t reverse_bits_32(uint32_t v) {
 }
 
 /// 32-bit integer finaliser with low bias ("lowbias32", C. Wellons 2018). Bijective.
-inline constexpr uint32_t mix_bits_32(uint32_t x) {
+template <class W>
+[[gnu::always_inline]] inline constexpr W mix_bits(W x) {
     x ^= x >> 16;
     x *= 0x7feb352du;
     x ^= x >> 15;
@@ -53,16 +61,84 @@ inline constexpr uint32_t mix_bits_32(uint32_t x) {
     return x;
 }
 
+/// Salts of the seed hashes: the pixel hash's seed and row, a dimension, and the index shuffle.
+inline constexpr uint32_t kSeedSalt = 0x9e3779b9u;
+inline constexpr uint32_t kRowSalt = 0x85ebca6bu;
+inline constexpr uint32_t kDimensionMul = 0xc2b2ae35u;
+inline constexpr uint32_t kDimensionSalt = 0x27d4eb2fu;
+inline constexpr uint32_t kShuffleSalt = 0x68bc21ebu;
+
+/// Hash of (seed, px, py): the part of every scramble seed shared by a pixel's dimensions.
+template <class W>
+[[gnu::always_inline]] inline constexpr W hash_pixel(uint32_t seed, W px, W py) {
+    const W h = mix_bits(mix_bits(seed ^ kSeedSalt) ^ px);
+    return mix_bits((h + kRowSalt) ^ py);
+}
+
+/// Hash of a pixel hash and a dimension.
+template <class W>
+[[gnu::always_inline]] inline constexpr W hash_dimension(W pixel_hash, W dim) {
+    return mix_bits(pixel_hash ^ (dim * kDimensionMul + kDimensionSalt));
+}
+
+/// Laine-Karras style permutation of a bit-reversed value: every step keeps "bit k depends on
+/// bits <= k only" (Burley 2020, listing 3; Laine and Karras 2011).
+template <class W>
+[[gnu::always_inline]] inline constexpr W laine_karras(W x, W seed) {
+    x ^= x * 0x3d20adeau;
+    x += seed;
+    x *= (seed >> 16) | 1u;
+    x ^= x * 0x05526c56u;
+    x ^= x * 0x53a22864u;
+    return x;
+}
+
+/// The seed of the index shuffle and of coordinate c (0: x, 1: y) of dimension hash `h`.
+template <class W>
+[[gnu::always_inline]] inline constexpr W shuffle_seed(W h) {
+    return mix_bits(h ^ kShuffleSalt);
+}
+template <class W>
+[[gnu::always_inline]] inline constexpr W coordinate_seed(W h, uint32_t c) {
+    return mix_bits(h + (c + 1u));
+}
+
+/// scrambled_sobol_1d_rev's value as 32-bit fixed point, from the dimension hash `h` and the
+/// bit-reversed sample index.
+template <class W>
+[[gnu::always_inline]] inline constexpr W sobol_1d_rev(W h, W index_rev) {
+    // shuffled = reverse(z); owen_sobol_dim0(shuffled) = reverse(LK(shuffled)).
+    const W z = laine_karras(index_rev, shuffle_seed(h));
+    return reverse_bits(laine_karras(reverse_bits(z), coordinate_seed(h, 0)));
+}
+
+/// scrambled_sobol_2d_rev's coordinates, still bit-reversed: the caller reverses x_rev and
+/// y_rev. `dim1_reversed(z)` is sobol_dim1_reversed for W (table lookups or gathers).
+template <class W, class Dim1Reversed>
+[[gnu::always_inline]] inline constexpr void sobol_2d_rev(W h, W index_rev,
+                                                          Dim1Reversed &&dim1_reversed, W &x_rev,
+                                                          W &y_rev) {
+    const W z = laine_karras(index_rev, shuffle_seed(h));  // reversed shuffle
+    x_rev = laine_karras(reverse_bits(z), coordinate_seed(h, 0));
+    y_rev = laine_karras(dim1_reversed(z), coordinate_seed(h, 1));
+}
+
+}  // namespace lanes
+
+/// Reverses the 32 bits of v.
+inline constexpr uint32_t reverse_bits_32(uint32_t v) { return lanes::reverse_bits(v); }
+
+/// 32-bit integer finaliser with low bias ("lowbias32", C. Wellons 2018). Bijective.
+inline constexpr uint32_t mix_bits_32(uint32_t x) { return lanes::mix_bits(x); }
+
 /// Hash of (seed, px, py): the part of every scramble seed shared by a pixel's dimensions.
 inline constexpr uint32_t hash_pixel(uint32_t seed, uint32_t px, uint32_t py) {
-    uint32_t h = mix_bits_32(seed ^ 0x9e3779b9u);
-    h = mix_bits_32(h ^ px);
-    return mix_bits_32((h + 0x85ebca6bu) ^ py);
+    return lanes::hash_pixel(seed, px, py);
 }
 
 /// Hash of a pixel hash and a dimension.
 inline constexpr uint32_t hash_dimension(uint32_t pixel_hash, uint32_t dim) {
-    return mix_bits_32(pixel_hash ^ (dim * 0xc2b2ae35u + 0x27d4eb2fu));
+    return lanes::hash_dimension(pixel_hash, dim);
 }
 
 /// Hash of (seed, px, py, dimension), the root of every per-pixel scramble seed.
@@ -75,14 +151,7 @@ inline constexpr uint32_t hash_pixel_dimension(uint32_t seed, uint32_t px, uint3
 /// (counting from the most significant) depends only on bits 0..k of x and on the seed, so
 /// every dyadic interval is permuted as a whole (Burley 2020, listings 3 and 4).
 inline constexpr uint32_t owen_scramble_32(uint32_t x, uint32_t seed) {
-    x = reverse_bits_32(x);
-    // Laine-Karras style permutation: every step keeps "bit k depends on bits <= k only".
-    x ^= x * 0x3d20adeau;
-    x += seed;
-    x *= (seed >> 16) | 1u;
-    x ^= x * 0x05526c56u;
-    x ^= x * 0x53a22864u;
-    return reverse_bits_32(x);
+    return reverse_bits_32(lanes::laine_karras(reverse_bits_32(x), seed));
 }
 
 /// Sobol dimension 0 (van der Corput, base 2) of `index` as 32-bit fixed point.
@@ -158,12 +227,7 @@ inline float fixed_to_unit_float(uint32_t x) {
 
 /// Laine-Karras hash of a bit-reversed value (the core of owen_scramble_32).
 inline constexpr uint32_t laine_karras_32(uint32_t x, uint32_t seed) {
-    x ^= x * 0x3d20adeau;
-    x += seed;
-    x *= (seed >> 16) | 1u;
-    x ^= x * 0x05526c56u;
-    x ^= x * 0x53a22864u;
-    return x;
+    return lanes::laine_karras(x, seed);
 }
 
 /// Owen scramble of Sobol dimension 0 of `index`: owen_scramble_32(sobol_dim0(index), seed)
@@ -174,34 +238,30 @@ inline constexpr uint32_t owen_sobol_dim0(uint32_t index, uint32_t seed) {
 
 /// Owen-scrambled 1D value of (pixel hash `h`, sample index): shuffled, scrambled van der Corput.
 inline float scrambled_sobol_1d(uint32_t h, uint32_t index) {
-    uint32_t shuffled = owen_scramble_32(index, mix_bits_32(h ^ 0x68bc21ebu));
-    return fixed_to_unit_float(owen_sobol_dim0(shuffled, mix_bits_32(h + 1u)));
+    uint32_t shuffled = owen_scramble_32(index, lanes::shuffle_seed(h));
+    return fixed_to_unit_float(owen_sobol_dim0(shuffled, lanes::coordinate_seed(h, 0)));
 }
 
 /// Owen-scrambled 2D value of (pixel hash `h`, sample index): shuffled, scrambled Sobol (0,2).
 inline Vec2f scrambled_sobol_2d(uint32_t h, uint32_t index) {
-    uint32_t shuffled = owen_scramble_32(index, mix_bits_32(h ^ 0x68bc21ebu));
-    uint32_t x = owen_sobol_dim0(shuffled, mix_bits_32(h + 1u));
-    uint32_t y = owen_scramble_32(sobol_dim1(shuffled), mix_bits_32(h + 2u));
+    uint32_t shuffled = owen_scramble_32(index, lanes::shuffle_seed(h));
+    uint32_t x = owen_sobol_dim0(shuffled, lanes::coordinate_seed(h, 0));
+    uint32_t y = owen_scramble_32(sobol_dim1(shuffled), lanes::coordinate_seed(h, 1));
     return {fixed_to_unit_float(x), fixed_to_unit_float(y)};
 }
 
 /// scrambled_sobol_1d(h, index) given index_rev = reverse_bits_32(index): the same value with
 /// two of its four bit reversals removed (the sampler caches index_rev per sample).
 inline float scrambled_sobol_1d_rev(uint32_t h, uint32_t index_rev) {
-    // shuffled = reverse(z); owen_sobol_dim0(shuffled) = reverse(LK(shuffled)).
-    uint32_t z = laine_karras_32(index_rev, mix_bits_32(h ^ 0x68bc21ebu));
-    return fixed_to_unit_float(
-        reverse_bits_32(laine_karras_32(reverse_bits_32(z), mix_bits_32(h + 1u))));
+    return fixed_to_unit_float(lanes::sobol_1d_rev(h, index_rev));
 }
 
 /// scrambled_sobol_2d(h, index) given index_rev = reverse_bits_32(index), bit-identical:
 /// 2 reversals instead of 5 (the dimension-1 path stays in the reversed domain through
 /// sobol_dim1_reversed, and the two output reversals run as one 64-bit reversal).
 inline Vec2f scrambled_sobol_2d_rev(uint32_t h, uint32_t index_rev) {
-    uint32_t z = laine_karras_32(index_rev, mix_bits_32(h ^ 0x68bc21ebu));  // reversed shuffle
-    uint32_t x_rev = laine_karras_32(reverse_bits_32(z), mix_bits_32(h + 1u));
-    uint32_t y_rev = laine_karras_32(sobol_dim1_reversed(z), mix_bits_32(h + 2u));
+    uint32_t x_rev = 0, y_rev = 0;
+    lanes::sobol_2d_rev(h, index_rev, sobol_dim1_reversed, x_rev, y_rev);
     uint64_t xy = detail::reverse_bits_2x32((uint64_t(y_rev) << 32) | x_rev);
     return {fixed_to_unit_float(uint32_t(xy)), fixed_to_unit_float(uint32_t(xy >> 32))};
 }

@@ -192,18 +192,16 @@ void write_checkpoint(const std::string &path, const sampling::Film &film,
 }
 
 sampling::AovSet checkpoint_aovs(const std::string &path) {
-    auto in = OIIO::ImageInput::open(path);
-    if (!in) throw SceneError(path + ":0: cannot read checkpoint: " + OIIO::geterror());
-    const OIIO::ImageSpec &spec = in->spec();
+    OpenedImage img = open_image(path, FileLoc{path, 0}, "checkpoint");
+    const OIIO::ImageSpec &spec = img.spec;
     if (spec.get_string_attribute("tessera:format") != kFormatTag)
         throw SceneError(path + ":0: not a Tessera checkpoint");
     return aovs_in(spec, path);
 }
 
 CheckpointState read_checkpoint(const std::string &path, sampling::Film &film) {
-    auto in = OIIO::ImageInput::open(path);
-    if (!in) throw SceneError(path + ":0: cannot read checkpoint: " + OIIO::geterror());
-    const OIIO::ImageSpec &spec = in->spec();
+    OpenedImage img = open_image(path, FileLoc{path, 0}, "checkpoint");
+    const OIIO::ImageSpec &spec = img.spec;
     if (spec.get_string_attribute("tessera:format") != kFormatTag)
         throw SceneError(path + ":0: not a Tessera checkpoint");
     const sampling::AovSet aovs = aovs_in(spec, path);
@@ -226,8 +224,8 @@ CheckpointState read_checkpoint(const std::string &path, sampling::Film &film) {
     // Every channel is 4 bytes: read native data and reorder.
     std::vector<uint32_t> file_words(size_t(spec.width) * size_t(spec.height) *
                                      size_t(spec.nchannels));
-    if (!in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::UNKNOWN, file_words.data()))
-        throw SceneError(path + ":0: cannot read checkpoint pixels: " + in->geterror());
+    if (!img.in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::UNKNOWN, file_words.data()))
+        img.fail(img.in->geterror());
     std::vector<PixelData> px(size_t(spec.width) * size_t(spec.height));
     sampling::Film::AovData aov;
     if (aovs.has(sampling::Aov::Albedo)) aov.albedo.resize(px.size());

@@ -267,6 +267,32 @@ class Parser {
     void finish(const Tokenizer &main);
 
   private:
+    // --- the directives, one handler per group (parse); each returns false for a directive
+    // that is not its own.
+    /// The transformation directives (Identity ... ActiveTransform) and ReverseOrientation.
+    bool transform_directive(Tokenizer &tok, const Token &t, const FileLoc &loc);
+    /// The graphics-state blocks (AttributeBegin/End, TransformBegin/End), Attribute, and
+    /// WorldBegin/WorldEnd.
+    bool block_directive(Tokenizer &tok, const Token &t, const FileLoc &loc,
+                         const std::string &dir);
+    /// The rendering options before WorldBegin: Camera, Film, Sampler, Integrator, PixelFilter,
+    /// Accelerator, ColorSpace and Option.
+    bool option_directive(Tokenizer &tok, const Token &t, const FileLoc &loc,
+                          const std::string &dir);
+    /// Include (textual) and Import (pbrt-v4; the world block only): parses the named file.
+    void include_directive(Tokenizer &tok, const Token &t, const FileLoc &loc,
+                           const std::string &dir, int depth);
+    /// Materials and textures: MakeNamedMaterial, Material, NamedMaterial, Texture.
+    bool material_directive(Tokenizer &tok, const Token &t, const FileLoc &loc,
+                            const std::string &dir);
+    /// The world's contents: LightSource, AreaLightSource, Shape and object instancing
+    /// (ObjectBegin, ObjectEnd, ObjectInstance).
+    bool world_directive(Tokenizer &tok, const Token &t, const FileLoc &loc,
+                         const std::string &dir);
+    /// Participating media (not supported: checked, then ignored with a warning).
+    bool medium_directive(Tokenizer &tok, const Token &t, const FileLoc &loc,
+                          const std::string &dir);
+
     // --- token helpers
     Token expect_token(Tokenizer &tok, const char *what) {
         std::optional<Token> t = tok.next();
@@ -569,6 +595,369 @@ void Parser::set_option(OptionDesc &o, Tokenizer &tok, const Token &t, const std
     o.present = true;
 }
 
+bool Parser::transform_directive(Tokenizer &tok, const Token &t, const FileLoc &loc) {
+    const std::string &d = t.text;
+    if (d == "Identity") {
+        set_transform(Transform());
+    } else if (d == "Translate") {
+        std::vector<double> v = expect_numbers(tok, d, 3);
+        apply_transform(Transform::translate(Vec3f(float(v[0]), float(v[1]), float(v[2]))));
+    } else if (d == "Scale") {
+        std::vector<double> v = expect_numbers(tok, d, 3);
+        apply_transform(Transform::scale(v[0], v[1], v[2]));
+    } else if (d == "Rotate") {
+        std::vector<double> v = expect_numbers(tok, d, 4);
+        apply_transform(
+            Transform::rotate(v[0], Vec3f(float(v[1]), float(v[2]), float(v[3]))));
+    } else if (d == "LookAt") {
+        std::vector<double> v = expect_numbers(tok, d, 9);
+        bool ok = true;
+        Transform la = Transform::look_at(Vec3f(float(v[0]), float(v[1]), float(v[2])),
+                                          Vec3f(float(v[3]), float(v[4]), float(v[5])),
+                                          Vec3f(float(v[6]), float(v[7]), float(v[8])), &ok);
+        // pbrt-v4 stops on a LookAt it cannot turn into a frame; so does Tessera (a
+        // silently ignored camera transform renders a black or wrong image).
+        if (!ok) {
+            const bool same = v[0] == v[3] && v[1] == v[4] && v[2] == v[5];
+            throw SceneError(loc, same ? "LookAt: the eye and the look-at point are the "
+                                         "same; there is no viewing direction"
+                                       : "LookAt: the up vector is zero or parallel to the "
+                                         "viewing direction");
+        }
+        apply_transform(la);
+    } else if (d == "Transform" || d == "ConcatTransform") {
+        std::vector<double> v = expect_numbers(tok, d, 16);
+        Mat4 m;
+        // Column by column in the file: element i is row i % 4, column i / 4.
+        for (int i = 0; i < 16; ++i) m.m[i % 4][i / 4] = v[i];
+        if (d == "Transform") set_transform(Transform(m));
+        else apply_transform(Transform(m));
+    } else if (d == "CoordinateSystem") {
+        named_coord_sys_[expect_string(tok, d)] = state_.ctm;
+    } else if (d == "CoordSysTransform") {
+        std::string name = expect_string(tok, d);
+        auto it = named_coord_sys_.find(name);
+        if (it == named_coord_sys_.end())
+            warn(loc, "CoordSysTransform: unknown coordinate system \"" + name + "\"");
+        else
+            set_transform(it->second);
+    } else if (d == "TransformTimes") {
+        expect_numbers(tok, d, 2);
+        motion_warning(loc);
+    } else if (d == "ActiveTransform") {
+        Token a = expect_token(tok, "ActiveTransform expects StartTime, EndTime or All");
+        if (a.is("StartTime") || a.is("All")) {
+            active_start_ = true;
+        } else if (a.is("EndTime")) {
+            active_start_ = false;
+            motion_warning(loc);
+        } else {
+            throw SceneError(tok.loc(a), "ActiveTransform expects StartTime, EndTime or "
+                                         "All, found '" + a.text + "'");
+        }
+    } else if (d == "ReverseOrientation") {
+        state_.reverse_orientation = !state_.reverse_orientation;
+    } else {
+        return false;
+    }
+    return true;
+}
+
+bool Parser::block_directive(Tokenizer &tok, const Token &t, const FileLoc &loc,
+                             const std::string &dir) {
+    const std::string &d = t.text;
+    if (d == "AttributeBegin") {
+        push(PushKind::Attribute, loc);
+    } else if (d == "AttributeEnd") {
+        pop(tok, t, PushKind::Attribute);
+    } else if (d == "TransformBegin") {
+        if (!warned_transform_begin_)
+            warn(loc, "TransformBegin/TransformEnd are deprecated in pbrt-v4; accepted");
+        warned_transform_begin_ = true;
+        push(PushKind::Transform, loc);
+    } else if (d == "TransformEnd") {
+        pop(tok, t, PushKind::Transform);
+    } else if (d == "Attribute") {
+        std::string target = expect_string(tok, d);
+        ParamSet ps = parse_params(tok, dir);
+        ParamSet *attrs = target == "shape"      ? &state_.shape_attrs
+                          : target == "light"    ? &state_.light_attrs
+                          : target == "material" ? &state_.material_attrs
+                          : target == "medium"   ? &state_.medium_attrs
+                          : target == "texture"  ? &state_.texture_attrs
+                                                 : nullptr;
+        if (!attrs)
+            throw SceneError(loc, "Attribute: unknown target \"" + target +
+                                      "\" (expected shape, light, material, medium or "
+                                      "texture)");
+        // Later Attribute statements override earlier values of the same name.
+        for (Param &p : ps.params) {
+            std::erase_if(attrs->params, [&](const Param &q) { return q.name == p.name; });
+            attrs->params.push_back(std::move(p));
+        }
+    } else if (d == "WorldBegin") {
+        if (in_world_) throw SceneError(loc, "WorldBegin given twice");
+        in_world_ = true;
+        active_start_ = true;  // pbrt-v4 resets the active transforms too
+        state_.ctm = Transform();
+        named_coord_sys_["world"] = state_.ctm;
+    } else if (d == "WorldEnd") {
+        warn(loc, "WorldEnd is pbrt-v3 syntax; ignored");
+    } else {
+        return false;
+    }
+    return true;
+}
+
+bool Parser::option_directive(Tokenizer &tok, const Token &t, const FileLoc &loc,
+                              const std::string &dir) {
+    const std::string &d = t.text;
+    if (d == "Camera") {
+        set_option(scene_.camera, tok, t, dir);
+        scene_.camera_from_world = state_.ctm;
+        named_coord_sys_["camera"] = state_.ctm.inverse();
+    } else if (d == "Film") {
+        set_option(scene_.film, tok, t, dir);
+    } else if (d == "Sampler") {
+        set_option(scene_.sampler, tok, t, dir);
+    } else if (d == "Integrator") {
+        set_option(scene_.integrator, tok, t, dir);
+    } else if (d == "PixelFilter") {
+        set_option(scene_.filter, tok, t, dir);
+    } else if (d == "Accelerator") {
+        set_option(scene_.accelerator, tok, t, dir);
+    } else if (d == "ColorSpace") {
+        std::string cs = expect_string(tok, d);
+        if (cs != "srgb")
+            warn(loc, "ColorSpace \"" + cs + "\" is not supported; colours are read as "
+                      "linear sRGB");
+    } else if (d == "Option") {
+        ParamSet ps = parse_params(tok, dir);
+        if (ps.params.size() != 1)
+            throw SceneError(loc, "Option expects exactly one parameter");
+        warn(loc, "Option \"" + ps.params[0].name + "\" is not supported; ignored");
+    } else {
+        return false;
+    }
+    return true;
+}
+
+void Parser::include_directive(Tokenizer &tok, const Token &t, const FileLoc &loc,
+                               const std::string &dir, int depth) {
+    const std::string &d = t.text;
+    // Include is textual. Import (pbrt-v4) is allowed in the world block only and
+    // brings back the shapes, lights, instances and named entities it declares, not its
+    // graphics state: a transform, material or ReverseOrientation left set at the end of
+    // the imported file does not carry over.
+    const bool import = d == "Import";
+    if (import) require_world(tok, t);
+    std::string name = expect_string(tok, d);
+    if (depth + 1 > kMaxIncludeDepth)
+        throw SceneError(loc, d + " nested more than " +
+                                  std::to_string(kMaxIncludeDepth) + " files deep");
+    std::string path, text;
+    std::string why = read_relative(dir, name, &path, &text);
+    if (!why.empty())
+        throw SceneError(loc, "cannot open " + d + " file \"" + name + "\": " + why);
+    // A file that includes itself, directly or through others, would recurse until
+    // the depth limit: name the cycle instead.
+    std::string id = canonical_or_same(path);
+    for (size_t i = 0; i < include_stack_.size(); ++i) {
+        if (include_stack_[i].id != id) continue;
+        std::string chain;
+        for (size_t j = i; j < include_stack_.size(); ++j)
+            chain += include_stack_[j].name + " -> ";
+        throw SceneError(loc, d + " \"" + name + "\" includes itself (" + chain +
+                                  name + ")");
+    }
+    scene_.read_files.push_back(path);
+    include_stack_.push_back({id, path});
+    Tokenizer sub(std::move(text), path);
+    std::optional<GraphicsState> saved;
+    const bool saved_active_start = active_start_;
+    if (import) saved = state_;
+    parse(sub, dir_of(path), depth + 1);
+    if (saved) {
+        state_ = std::move(*saved);
+        active_start_ = saved_active_start;  // ActiveTransform is state too
+    }
+    include_stack_.pop_back();
+}
+
+bool Parser::material_directive(Tokenizer &tok, const Token &t, const FileLoc &loc,
+                                const std::string &dir) {
+    const std::string &d = t.text;
+    if (d == "MakeNamedMaterial") {
+        require_world(tok, t);
+        std::string name = expect_string(tok, d);
+        MaterialDesc m;
+        m.name = name;
+        m.params = parse_params(tok, dir);
+        merge_defaults(m.params, state_.material_attrs);
+        m.loc = loc;
+        m.base_dir = main_dir_;  // pbrt-v4: relative to the main file
+        const Param *type = m.params.find("type");
+        if (!type || type->type != "string" || type->strings.size() != 1)
+            throw SceneError(loc, "MakeNamedMaterial \"" + name +
+                                      "\": no \"string type\" parameter");
+        m.type = type->strings[0];
+        std::erase_if(m.params.params, [](const Param &p) { return p.name == "type"; });
+        auto [it, inserted] = scene_.materials.emplace(name, std::move(m));
+        if (!inserted)
+            throw SceneError(loc, "named material \"" + name + "\" redefined (first at " +
+                                      it->second.loc.str() + ")");
+    } else if (d == "Material") {
+        require_world(tok, t);
+        MaterialDesc m;
+        m.type = expect_string(tok, d);
+        m.params = parse_params(tok, dir);
+        merge_defaults(m.params, state_.material_attrs);
+        m.loc = loc;
+        m.base_dir = main_dir_;  // pbrt-v4: relative to the main file
+        m.name = "anonymous#" + std::to_string(++anonymous_materials_);
+        state_.material = m.name;
+        scene_.materials.emplace(m.name, std::move(m));
+    } else if (d == "NamedMaterial") {
+        require_world(tok, t);
+        state_.material = expect_string(tok, d);
+    } else if (d == "Texture") {
+        require_world(tok, t);
+        TextureDesc tx;
+        tx.name = expect_string(tok, d);
+        tx.value_type = expect_string(tok, d);
+        tx.tex_class = expect_string(tok, d);
+        if (tx.value_type == "color") {
+            warn(loc, "texture type \"color\" is pbrt-v3 syntax; read as \"spectrum\"");
+            tx.value_type = "spectrum";
+        }
+        if (tx.value_type != "float" && tx.value_type != "spectrum")
+            throw SceneError(loc, "texture \"" + tx.name + "\": unknown type \"" +
+                                      tx.value_type + "\" (expected float or spectrum)");
+        tx.params = parse_params(tok, dir);
+        merge_defaults(tx.params, state_.texture_attrs);
+        tx.loc = loc;
+        tx.render_from_texture = state_.ctm;
+        tx.base_dir = main_dir_;  // pbrt-v4: relative to the main file
+        std::string key = tx.value_type + ":" + tx.name;
+        if (auto it = texture_index_.find(key); it != texture_index_.end())
+            throw SceneError(loc, tx.value_type + " texture \"" + tx.name +
+                                      "\" redefined (first at " +
+                                      scene_.textures[it->second].loc.str() + ")");
+        texture_index_[key] = int(scene_.textures.size());
+        scene_.textures.push_back(std::move(tx));
+    } else {
+        return false;
+    }
+    return true;
+}
+
+bool Parser::world_directive(Tokenizer &tok, const Token &t, const FileLoc &loc,
+                             const std::string &dir) {
+    const std::string &d = t.text;
+    if (d == "LightSource") {
+        require_world(tok, t);
+        LightDesc l;
+        l.type = expect_string(tok, d);
+        l.params = parse_params(tok, dir);
+        merge_defaults(l.params, state_.light_attrs);
+        l.loc = loc;
+        l.render_from_light = state_.ctm;
+        l.base_dir = main_dir_;  // pbrt-v4: relative to the main file
+        if (current_object_)
+            warn(loc, "LightSource inside ObjectBegin applies to the world, not to "
+                      "instances");
+        scene_.lights.push_back(std::move(l));
+    } else if (d == "AreaLightSource") {
+        require_world(tok, t);
+        state_.area_light_type = expect_string(tok, d);
+        state_.area_light = parse_params(tok, dir);
+        merge_defaults(state_.area_light, state_.light_attrs);
+        state_.area_light_loc = loc;
+    } else if (d == "Shape") {
+        require_world(tok, t);
+        ShapeDesc s;
+        s.type = expect_string(tok, d);
+        s.params = parse_params(tok, dir);
+        merge_defaults(s.params, state_.shape_attrs);
+        s.loc = loc;
+        s.render_from_object = state_.ctm;
+        s.reverse_orientation = state_.reverse_orientation;
+        s.material = state_.material;
+        s.base_dir = main_dir_;  // pbrt-v4: relative to the main file
+        if (!state_.area_light_type.empty()) {
+            if (current_object_) {
+                warn(loc, "area lights are not supported with object instancing; the "
+                          "shape is not emissive");
+            } else {
+                s.area_light = state_.area_light;
+                s.area_light_type = state_.area_light_type;
+                s.area_light_loc = state_.area_light_loc;
+            }
+        }
+        if (current_object_) current_object_->shapes.push_back(std::move(s));
+        else scene_.shapes.push_back(std::move(s));
+    } else if (d == "ObjectBegin") {
+        require_world(tok, t);
+        std::string name = expect_string(tok, d);
+        if (current_object_)
+            throw SceneError(loc, "ObjectBegin \"" + name + "\" inside the definition of \"" +
+                                      current_object_->name + "\"");
+        if (auto it = scene_.objects.find(name); it != scene_.objects.end())
+            throw SceneError(loc, "object \"" + name + "\" redefined (first at " +
+                                      it->second.loc.str() + ")");
+        push(PushKind::Object, loc);
+        ObjectDesc &o = scene_.objects[name];
+        o.name = name;
+        o.loc = loc;
+        current_object_ = &o;
+    } else if (d == "ObjectEnd") {
+        require_world(tok, t);
+        if (!current_object_) throw SceneError(loc, "ObjectEnd without ObjectBegin");
+        pop(tok, t, PushKind::Object);
+        current_object_ = nullptr;
+    } else if (d == "ObjectInstance") {
+        require_world(tok, t);
+        std::string name = expect_string(tok, d);
+        if (current_object_)
+            throw SceneError(loc, "ObjectInstance inside the definition of object \"" +
+                                      current_object_->name + "\"");
+        scene_.instances.push_back({name, state_.ctm, loc});
+    } else {
+        return false;
+    }
+    return true;
+}
+
+bool Parser::medium_directive(Tokenizer &tok, const Token &t, const FileLoc &loc,
+                              const std::string &dir) {
+    const std::string &d = t.text;
+    if (d == "MakeNamedMedium") {
+        std::string name = expect_string(tok, d);
+        ParamSet ps = parse_params(tok, dir);
+        const Param *type = ps.find("type");
+        if (!type || type->type != "string" || type->strings.size() != 1)
+            throw SceneError(loc, "MakeNamedMedium \"" + name +
+                                      "\": no \"string type\" parameter");
+        const std::string &t = type->strings[0];
+        static const char *kMediumTypes[] = {"homogeneous", "uniformgrid", "rgbgrid", "cloud",
+                                             "nanovdb"};
+        if (std::find(std::begin(kMediumTypes), std::end(kMediumTypes), t) ==
+            std::end(kMediumTypes))
+            throw SceneError(type->loc, "MakeNamedMedium \"" + name + "\": unknown medium type \"" +
+                                            t + "\"");
+        warn(loc, "participating media are not supported; medium \"" + name + "\" (" + t +
+                      ") is ignored");
+    } else if (d == "MediumInterface") {
+        expect_string(tok, d);
+        const Token *p = tok.peek();
+        if (p && p->quoted) tok.next();
+        warn(loc, "participating media are not supported; MediumInterface is ignored");
+    } else {
+        return false;
+    }
+    return true;
+}
+
 void Parser::parse(Tokenizer &tok, const std::string &dir, int depth) {
     while (std::optional<Token> ot = tok.next()) {
         const Token &t = *ot;
@@ -576,316 +965,16 @@ void Parser::parse(Tokenizer &tok, const std::string &dir, int depth) {
         if (t.quoted)
             throw SceneError(loc, "unexpected string \"" + t.text + "\" (expected a directive)");
         const std::string &d = t.text;
-
-        if (d == "Identity") {
-            set_transform(Transform());
-        } else if (d == "Translate") {
-            std::vector<double> v = expect_numbers(tok, d, 3);
-            apply_transform(Transform::translate(Vec3f(float(v[0]), float(v[1]), float(v[2]))));
-        } else if (d == "Scale") {
-            std::vector<double> v = expect_numbers(tok, d, 3);
-            apply_transform(Transform::scale(v[0], v[1], v[2]));
-        } else if (d == "Rotate") {
-            std::vector<double> v = expect_numbers(tok, d, 4);
-            apply_transform(
-                Transform::rotate(v[0], Vec3f(float(v[1]), float(v[2]), float(v[3]))));
-        } else if (d == "LookAt") {
-            std::vector<double> v = expect_numbers(tok, d, 9);
-            bool ok = true;
-            Transform la = Transform::look_at(Vec3f(float(v[0]), float(v[1]), float(v[2])),
-                                              Vec3f(float(v[3]), float(v[4]), float(v[5])),
-                                              Vec3f(float(v[6]), float(v[7]), float(v[8])), &ok);
-            // pbrt-v4 stops on a LookAt it cannot turn into a frame; so does Tessera (a
-            // silently ignored camera transform renders a black or wrong image).
-            if (!ok) {
-                const bool same = v[0] == v[3] && v[1] == v[4] && v[2] == v[5];
-                throw SceneError(loc, same ? "LookAt: the eye and the look-at point are the "
-                                             "same; there is no viewing direction"
-                                           : "LookAt: the up vector is zero or parallel to the "
-                                             "viewing direction");
-            }
-            apply_transform(la);
-        } else if (d == "Transform" || d == "ConcatTransform") {
-            std::vector<double> v = expect_numbers(tok, d, 16);
-            Mat4 m;
-            // Column by column in the file: element i is row i % 4, column i / 4.
-            for (int i = 0; i < 16; ++i) m.m[i % 4][i / 4] = v[i];
-            if (d == "Transform") set_transform(Transform(m));
-            else apply_transform(Transform(m));
-        } else if (d == "CoordinateSystem") {
-            named_coord_sys_[expect_string(tok, d)] = state_.ctm;
-        } else if (d == "CoordSysTransform") {
-            std::string name = expect_string(tok, d);
-            auto it = named_coord_sys_.find(name);
-            if (it == named_coord_sys_.end())
-                warn(loc, "CoordSysTransform: unknown coordinate system \"" + name + "\"");
-            else
-                set_transform(it->second);
-        } else if (d == "TransformTimes") {
-            expect_numbers(tok, d, 2);
-            motion_warning(loc);
-        } else if (d == "ActiveTransform") {
-            Token a = expect_token(tok, "ActiveTransform expects StartTime, EndTime or All");
-            if (a.is("StartTime") || a.is("All")) {
-                active_start_ = true;
-            } else if (a.is("EndTime")) {
-                active_start_ = false;
-                motion_warning(loc);
-            } else {
-                throw SceneError(tok.loc(a), "ActiveTransform expects StartTime, EndTime or "
-                                             "All, found '" + a.text + "'");
-            }
-        } else if (d == "ReverseOrientation") {
-            state_.reverse_orientation = !state_.reverse_orientation;
-        } else if (d == "AttributeBegin") {
-            push(PushKind::Attribute, loc);
-        } else if (d == "AttributeEnd") {
-            pop(tok, t, PushKind::Attribute);
-        } else if (d == "TransformBegin") {
-            if (!warned_transform_begin_)
-                warn(loc, "TransformBegin/TransformEnd are deprecated in pbrt-v4; accepted");
-            warned_transform_begin_ = true;
-            push(PushKind::Transform, loc);
-        } else if (d == "TransformEnd") {
-            pop(tok, t, PushKind::Transform);
-        } else if (d == "Attribute") {
-            std::string target = expect_string(tok, d);
-            ParamSet ps = parse_params(tok, dir);
-            ParamSet *attrs = target == "shape"      ? &state_.shape_attrs
-                              : target == "light"    ? &state_.light_attrs
-                              : target == "material" ? &state_.material_attrs
-                              : target == "medium"   ? &state_.medium_attrs
-                              : target == "texture"  ? &state_.texture_attrs
-                                                     : nullptr;
-            if (!attrs)
-                throw SceneError(loc, "Attribute: unknown target \"" + target +
-                                          "\" (expected shape, light, material, medium or "
-                                          "texture)");
-            // Later Attribute statements override earlier values of the same name.
-            for (Param &p : ps.params) {
-                std::erase_if(attrs->params, [&](const Param &q) { return q.name == p.name; });
-                attrs->params.push_back(std::move(p));
-            }
-        } else if (d == "WorldBegin") {
-            if (in_world_) throw SceneError(loc, "WorldBegin given twice");
-            in_world_ = true;
-            active_start_ = true;  // pbrt-v4 resets the active transforms too
-            state_.ctm = Transform();
-            named_coord_sys_["world"] = state_.ctm;
-        } else if (d == "WorldEnd") {
-            warn(loc, "WorldEnd is pbrt-v3 syntax; ignored");
-        } else if (d == "Camera") {
-            set_option(scene_.camera, tok, t, dir);
-            scene_.camera_from_world = state_.ctm;
-            named_coord_sys_["camera"] = state_.ctm.inverse();
-        } else if (d == "Film") {
-            set_option(scene_.film, tok, t, dir);
-        } else if (d == "Sampler") {
-            set_option(scene_.sampler, tok, t, dir);
-        } else if (d == "Integrator") {
-            set_option(scene_.integrator, tok, t, dir);
-        } else if (d == "PixelFilter") {
-            set_option(scene_.filter, tok, t, dir);
-        } else if (d == "Accelerator") {
-            set_option(scene_.accelerator, tok, t, dir);
-        } else if (d == "ColorSpace") {
-            std::string cs = expect_string(tok, d);
-            if (cs != "srgb")
-                warn(loc, "ColorSpace \"" + cs + "\" is not supported; colours are read as "
-                          "linear sRGB");
-        } else if (d == "Option") {
-            ParamSet ps = parse_params(tok, dir);
-            if (ps.params.size() != 1)
-                throw SceneError(loc, "Option expects exactly one parameter");
-            warn(loc, "Option \"" + ps.params[0].name + "\" is not supported; ignored");
-        } else if (d == "Include" || d == "Import") {
-            // Include is textual. Import (pbrt-v4) is allowed in the world block only and
-            // brings back the shapes, lights, instances and named entities it declares, not its
-            // graphics state: a transform, material or ReverseOrientation left set at the end of
-            // the imported file does not carry over.
-            const bool import = d == "Import";
-            if (import) require_world(tok, t);
-            std::string name = expect_string(tok, d);
-            if (depth + 1 > kMaxIncludeDepth)
-                throw SceneError(loc, d + " nested more than " +
-                                          std::to_string(kMaxIncludeDepth) + " files deep");
-            std::string path, text;
-            std::string why = read_relative(dir, name, &path, &text);
-            if (!why.empty())
-                throw SceneError(loc, "cannot open " + d + " file \"" + name + "\": " + why);
-            // A file that includes itself, directly or through others, would recurse until
-            // the depth limit: name the cycle instead.
-            std::string id = canonical_or_same(path);
-            for (size_t i = 0; i < include_stack_.size(); ++i) {
-                if (include_stack_[i].id != id) continue;
-                std::string chain;
-                for (size_t j = i; j < include_stack_.size(); ++j)
-                    chain += include_stack_[j].name + " -> ";
-                throw SceneError(loc, d + " \"" + name + "\" includes itself (" + chain +
-                                          name + ")");
-            }
-            scene_.read_files.push_back(path);
-            include_stack_.push_back({id, path});
-            Tokenizer sub(std::move(text), path);
-            std::optional<GraphicsState> saved;
-            const bool saved_active_start = active_start_;
-            if (import) saved = state_;
-            parse(sub, dir_of(path), depth + 1);
-            if (saved) {
-                state_ = std::move(*saved);
-                active_start_ = saved_active_start;  // ActiveTransform is state too
-            }
-            include_stack_.pop_back();
-        } else if (d == "MakeNamedMaterial") {
-            require_world(tok, t);
-            std::string name = expect_string(tok, d);
-            MaterialDesc m;
-            m.name = name;
-            m.params = parse_params(tok, dir);
-            merge_defaults(m.params, state_.material_attrs);
-            m.loc = loc;
-            m.base_dir = main_dir_;  // pbrt-v4: relative to the main file
-            const Param *type = m.params.find("type");
-            if (!type || type->type != "string" || type->strings.size() != 1)
-                throw SceneError(loc, "MakeNamedMaterial \"" + name +
-                                          "\": no \"string type\" parameter");
-            m.type = type->strings[0];
-            std::erase_if(m.params.params, [](const Param &p) { return p.name == "type"; });
-            auto [it, inserted] = scene_.materials.emplace(name, std::move(m));
-            if (!inserted)
-                throw SceneError(loc, "named material \"" + name + "\" redefined (first at " +
-                                          it->second.loc.str() + ")");
-        } else if (d == "Material") {
-            require_world(tok, t);
-            MaterialDesc m;
-            m.type = expect_string(tok, d);
-            m.params = parse_params(tok, dir);
-            merge_defaults(m.params, state_.material_attrs);
-            m.loc = loc;
-            m.base_dir = main_dir_;  // pbrt-v4: relative to the main file
-            m.name = "anonymous#" + std::to_string(++anonymous_materials_);
-            state_.material = m.name;
-            scene_.materials.emplace(m.name, std::move(m));
-        } else if (d == "NamedMaterial") {
-            require_world(tok, t);
-            state_.material = expect_string(tok, d);
-        } else if (d == "Texture") {
-            require_world(tok, t);
-            TextureDesc tx;
-            tx.name = expect_string(tok, d);
-            tx.value_type = expect_string(tok, d);
-            tx.tex_class = expect_string(tok, d);
-            if (tx.value_type == "color") {
-                warn(loc, "texture type \"color\" is pbrt-v3 syntax; read as \"spectrum\"");
-                tx.value_type = "spectrum";
-            }
-            if (tx.value_type != "float" && tx.value_type != "spectrum")
-                throw SceneError(loc, "texture \"" + tx.name + "\": unknown type \"" +
-                                          tx.value_type + "\" (expected float or spectrum)");
-            tx.params = parse_params(tok, dir);
-            merge_defaults(tx.params, state_.texture_attrs);
-            tx.loc = loc;
-            tx.render_from_texture = state_.ctm;
-            tx.base_dir = main_dir_;  // pbrt-v4: relative to the main file
-            std::string key = tx.value_type + ":" + tx.name;
-            if (auto it = texture_index_.find(key); it != texture_index_.end())
-                throw SceneError(loc, tx.value_type + " texture \"" + tx.name +
-                                          "\" redefined (first at " +
-                                          scene_.textures[it->second].loc.str() + ")");
-            texture_index_[key] = int(scene_.textures.size());
-            scene_.textures.push_back(std::move(tx));
-        } else if (d == "LightSource") {
-            require_world(tok, t);
-            LightDesc l;
-            l.type = expect_string(tok, d);
-            l.params = parse_params(tok, dir);
-            merge_defaults(l.params, state_.light_attrs);
-            l.loc = loc;
-            l.render_from_light = state_.ctm;
-            l.base_dir = main_dir_;  // pbrt-v4: relative to the main file
-            if (current_object_)
-                warn(loc, "LightSource inside ObjectBegin applies to the world, not to "
-                          "instances");
-            scene_.lights.push_back(std::move(l));
-        } else if (d == "AreaLightSource") {
-            require_world(tok, t);
-            state_.area_light_type = expect_string(tok, d);
-            state_.area_light = parse_params(tok, dir);
-            merge_defaults(state_.area_light, state_.light_attrs);
-            state_.area_light_loc = loc;
-        } else if (d == "Shape") {
-            require_world(tok, t);
-            ShapeDesc s;
-            s.type = expect_string(tok, d);
-            s.params = parse_params(tok, dir);
-            merge_defaults(s.params, state_.shape_attrs);
-            s.loc = loc;
-            s.render_from_object = state_.ctm;
-            s.reverse_orientation = state_.reverse_orientation;
-            s.material = state_.material;
-            s.base_dir = main_dir_;  // pbrt-v4: relative to the main file
-            if (!state_.area_light_type.empty()) {
-                if (current_object_) {
-                    warn(loc, "area lights are not supported with object instancing; the "
-                              "shape is not emissive");
-                } else {
-                    s.area_light = state_.area_light;
-                    s.area_light_type = state_.area_light_type;
-                    s.area_light_loc = state_.area_light_loc;
-                }
-            }
-            if (current_object_) current_object_->shapes.push_back(std::move(s));
-            else scene_.shapes.push_back(std::move(s));
-        } else if (d == "ObjectBegin") {
-            require_world(tok, t);
-            std::string name = expect_string(tok, d);
-            if (current_object_)
-                throw SceneError(loc, "ObjectBegin \"" + name + "\" inside the definition of \"" +
-                                          current_object_->name + "\"");
-            if (auto it = scene_.objects.find(name); it != scene_.objects.end())
-                throw SceneError(loc, "object \"" + name + "\" redefined (first at " +
-                                          it->second.loc.str() + ")");
-            push(PushKind::Object, loc);
-            ObjectDesc &o = scene_.objects[name];
-            o.name = name;
-            o.loc = loc;
-            current_object_ = &o;
-        } else if (d == "ObjectEnd") {
-            require_world(tok, t);
-            if (!current_object_) throw SceneError(loc, "ObjectEnd without ObjectBegin");
-            pop(tok, t, PushKind::Object);
-            current_object_ = nullptr;
-        } else if (d == "ObjectInstance") {
-            require_world(tok, t);
-            std::string name = expect_string(tok, d);
-            if (current_object_)
-                throw SceneError(loc, "ObjectInstance inside the definition of object \"" +
-                                          current_object_->name + "\"");
-            scene_.instances.push_back({name, state_.ctm, loc});
-        } else if (d == "MakeNamedMedium") {
-            std::string name = expect_string(tok, d);
-            ParamSet ps = parse_params(tok, dir);
-            const Param *type = ps.find("type");
-            if (!type || type->type != "string" || type->strings.size() != 1)
-                throw SceneError(loc, "MakeNamedMedium \"" + name +
-                                          "\": no \"string type\" parameter");
-            const std::string &t = type->strings[0];
-            static const char *kMediumTypes[] = {"homogeneous", "uniformgrid", "rgbgrid", "cloud",
-                                                 "nanovdb"};
-            if (std::find(std::begin(kMediumTypes), std::end(kMediumTypes), t) ==
-                std::end(kMediumTypes))
-                throw SceneError(type->loc, "MakeNamedMedium \"" + name + "\": unknown medium type \"" +
-                                                t + "\"");
-            warn(loc, "participating media are not supported; medium \"" + name + "\" (" + t +
-                          ") is ignored");
-        } else if (d == "MediumInterface") {
-            expect_string(tok, d);
-            const Token *p = tok.peek();
-            if (p && p->quoted) tok.next();
-            warn(loc, "participating media are not supported; MediumInterface is ignored");
-        } else {
-            throw SceneError(loc, "unknown directive '" + d + "'");
+        if (transform_directive(tok, t, loc) || block_directive(tok, t, loc, dir) ||
+            option_directive(tok, t, loc, dir))
+            continue;
+        if (d == "Include" || d == "Import") {
+            include_directive(tok, t, loc, dir, depth);
+            continue;
         }
+        if (!(material_directive(tok, t, loc, dir) || world_directive(tok, t, loc, dir) ||
+              medium_directive(tok, t, loc, dir)))
+            throw SceneError(loc, "unknown directive '" + d + "'");
     }
 }
 

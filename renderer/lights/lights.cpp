@@ -1,6 +1,7 @@
 // Light sources (see lights.h). Equation references are to pbrt-v4's book (Pharr, Jakob,
 // Humphreys, "Physically Based Rendering", 4th ed., 2023) unless stated otherwise.
 #include "renderer/lights/lights.h"
+#include "renderer/util/image_io.h"
 #include "renderer/util/limits.h"
 
 #include <OpenImageIO/imageio.h>
@@ -774,16 +775,11 @@ std::string QuadricAreaLight::describe() const {
 
 std::vector<Rgb> read_rgb_image(const std::string &path, const FileLoc &loc, int *width,
                                 int *height) {
-    auto in = OIIO::ImageInput::open(path);
-    if (!in)
-        throw SceneError(loc, "cannot read image \"" + path + "\": " + OIIO::geterror());
-    const OIIO::ImageSpec &spec = in->spec();
-    const int w = spec.width, h = spec.height, nc = spec.nchannels;
     // Empty images, and sizes from a header that cannot be allocated, are rejected here.
-    check_image(w, h, nc, "image \"" + path + "\"", loc);
-    std::vector<float> buf(size_t(w) * size_t(h) * size_t(nc));
-    if (!in->read_image(0, 0, 0, nc, OIIO::TypeDesc::FLOAT, buf.data()))
-        throw SceneError(loc, "cannot read image \"" + path + "\": " + in->geterror());
+    OpenedImage img = open_image(path, loc, "image");
+    const OIIO::ImageSpec &spec = img.spec;
+    const int w = spec.width, h = spec.height, nc = spec.nchannels;
+    const std::vector<float> buf = img.read_floats(0, nc);
 
     // Channel order by name where the file names them (EXR), else the first three.
     int ch[3] = {0, nc > 1 ? 1 : 0, nc > 2 ? 2 : 0};
@@ -830,9 +826,10 @@ namespace {
 /// uses the same weights, so that "illuminance" gives the brightness it gives in pbrt-v4.
 Rgb pbrt_illuminance_weights(const std::string &path, const FileLoc &loc) {
     const Rgb lum(0.2126f, 0.7152f, 0.0722f);
-    auto in = OIIO::ImageInput::open(path);
-    if (!in || std::string(in->format_name()) != "openexr") return lum;
-    std::vector<std::string> names = in->spec().channelnames;
+    // The caller has read the image already: only its header is needed here.
+    OpenedImage img = open_image(path, loc, "image", ImageRead::Streamed);
+    if (std::string(img.in->format_name()) != "openexr") return lum;
+    std::vector<std::string> names = img.spec.channelnames;
     std::sort(names.begin(), names.end());
     Rgb w(0.f);
     const float coef[3] = {lum.r, lum.g, lum.b};

@@ -5,6 +5,7 @@
 #include <cstring>
 #include <filesystem>
 
+#include "renderer/util/image_io.h"
 #include "renderer/util/spectra.h"
 
 namespace tessera {
@@ -453,11 +454,15 @@ Vec3f NormalMapImage::lookup(Vec2f uv) const {
 
 std::shared_ptr<const NormalMapImage> NormalMapImage::load(const std::string &path,
                                                            const FileLoc &loc) {
+    // The header is checked (size, memory) before the ImageBuf below allocates the pixels.
+    const OpenedImage checked = open_image(path, loc, "normalmap");
+    if (checked.spec.nchannels < 3) throw SceneError(loc, "normalmap \"" + path + "\" needs RGB");
     OIIO::ImageBuf buf(path);
-    if (!buf.read(0, 0, true, OIIO::TypeDesc::FLOAT))
-        throw SceneError(loc, "normalmap \"" + path + "\": " + buf.geterror());
+    if (!buf.read(0, 0, true, OIIO::TypeDesc::FLOAT)) checked.fail(buf.geterror());
     const OIIO::ImageSpec &spec = buf.spec();
-    if (spec.nchannels < 3) throw SceneError(loc, "normalmap \"" + path + "\" needs RGB");
+    if (spec.nchannels < 3 || spec.width != checked.spec.width ||
+        spec.height != checked.spec.height)
+        checked.fail("the file changed while it was read");
     auto img = std::make_shared<NormalMapImage>();
     img->width = spec.width;
     img->height = spec.height;
@@ -467,7 +472,7 @@ std::shared_ptr<const NormalMapImage> NormalMapImage::load(const std::string &pa
     roi.chend = 3;
     // Linear: the texel values are vector components, not colours.
     if (!buf.get_pixels(roi, OIIO::TypeDesc::FLOAT, img->rgb.data()))
-        throw SceneError(loc, "normalmap \"" + path + "\": " + buf.geterror());
+        checked.fail(buf.geterror());
     return img;
 }
 

@@ -1,5 +1,6 @@
 // Texture classes, mappings and the image-map cache (see texture.h for the semantics).
 #include "renderer/shading/texture.h"
+#include "renderer/util/image_io.h"
 #include "renderer/util/limits.h"
 #include "renderer/util/noise.h"
 
@@ -639,13 +640,14 @@ bool read_by_pbrt_as_srgb_rgb(const std::string &path) {
 /// (pbrt-v4's "point" and "ewa" filters, MIPMap::Texel<Float>) instead of the RGB average.
 PreparedImage prepare_image(const std::string &path, const std::string &encoding_param,
                             const FileLoc &loc, bool scalar, bool first_channel) {
-    auto in = OIIO::ImageInput::open(path);
-    if (!in) throw SceneError(loc, path + ": cannot open image: " + OIIO::geterror());
-    OIIO::ImageSpec spec = in->spec();
+    // Streamed: tiled mipmapped files are read by the TextureSystem tile by tile; the memory
+    // check comes below, before a conversion reads the image whole.
+    OpenedImage img = open_image(path, loc, "image", ImageRead::Streamed);
+    const OIIO::ImageSpec spec = img.spec;
     int levels = 1;
-    while (in->seek_subimage(0, levels)) ++levels;
-    in->close();
-    in.reset();
+    while (img.in->seek_subimage(0, levels)) ++levels;
+    img.in->close();
+    img.in.reset();
 
     const bool float_image = is_float_format(spec.format);
     Encoding enc = parse_encoding(
@@ -689,13 +691,12 @@ PreparedImage prepare_image(const std::string &path, const std::string &encoding
 
     // A header may claim any size: check before the conversion below reads it whole (tiled
     // mipmapped files, returned above, are streamed by the TextureSystem instead).
-    check_image(spec.width, spec.height, spec.nchannels, "image \"" + path + "\"", loc);
+    img.check_read_whole();
     // Read without OIIO's default premultiplication by alpha: pbrt ignores alpha in image maps.
     OIIO::ImageSpec read_config;
     read_config.attribute("oiio:UnassociatedAlpha", 1);
     OIIO::ImageBuf src(path, 0, 0, nullptr, &read_config);
-    if (!src.read(0, 0, true, OIIO::TypeDesc::FLOAT))
-        throw SceneError(loc, path + ": cannot read image: " + src.geterror());
+    if (!src.read(0, 0, true, OIIO::TypeDesc::FLOAT)) img.fail(src.geterror());
     OIIO::ImageSpec out_spec = src.spec();
     out_spec.nchannels = out_channels;
     out_spec.channelformats.clear();
@@ -711,7 +712,7 @@ PreparedImage prepare_image(const std::string &path, const std::string &encoding
         roi.chend = nin;
         std::vector<float> rgba(size_t(roi.npixels()) * size_t(nin));
         if (!src.get_pixels(roi, OIIO::TypeDesc::FLOAT, rgba.data()))
-            throw SceneError(loc, path + ": cannot read pixels: " + src.geterror());
+            img.fail(src.geterror());
         bool use_alpha = false;
         if (nin == 4 && keep_alpha)
             for (size_t i = 3; i < rgba.size(); i += 4)
@@ -735,7 +736,7 @@ PreparedImage prepare_image(const std::string &path, const std::string &encoding
         roi.chend = out_channels;
         pixels.resize(size_t(roi.npixels()) * size_t(out_channels));
         if (!src.get_pixels(roi, OIIO::TypeDesc::FLOAT, pixels.data()))
-            throw SceneError(loc, path + ": cannot read pixels: " + src.geterror());
+            img.fail(src.geterror());
         if (enc.kind != Encoding::Linear)
             for (float &v : pixels) v = enc.decode(v);
     }

@@ -52,28 +52,9 @@ void write_with_oiio(const std::string &final_path, const std::string &file, con
         throw std::runtime_error(final_path + ": close failed: " + out->geterror());
 }
 
-struct OpenedImage {
-    std::unique_ptr<ImageInput> in;
-    ImageSpec spec;
-};
-
-OpenedImage open_image(const std::string &path) {
-    OpenedImage img;
-    img.in = ImageInput::open(path);
-    if (!img.in) throw std::runtime_error(path + ": cannot read image: " + OIIO::geterror());
-    img.spec = img.in->spec();
-    if (img.spec.width <= 0 || img.spec.height <= 0 || img.spec.nchannels <= 0)
-        throw std::runtime_error(path + ": empty image");
-    return img;
-}
-
 // All channels of subimage 0 as float, interleaved.
-std::vector<float> read_all_channels(OpenedImage &img, const std::string &path) {
-    const ImageSpec &s = img.spec;
-    std::vector<float> all(size_t(s.width) * s.height * s.nchannels);
-    if (!img.in->read_image(0, 0, 0, s.nchannels, TypeDesc::FLOAT, all.data()))
-        throw std::runtime_error(path + ": read failed: " + img.in->geterror());
-    return all;
+std::vector<float> read_all_channels(OpenedImage &img) {
+    return img.read_floats(0, img.spec.nchannels);
 }
 
 int channel_index(const ImageSpec &spec, const std::string &name) {
@@ -83,6 +64,44 @@ int channel_index(const ImageSpec &spec, const std::string &name) {
 }
 
 }  // namespace
+
+void OpenedImage::fail(const std::string &why) const {
+    throw SceneError(loc, "cannot read " + name + ": " + why);
+}
+
+void OpenedImage::check_read_whole() const {
+    check_image(spec.width, spec.height, spec.nchannels, name, loc);
+}
+
+std::vector<float> OpenedImage::read_floats(int chbegin, int chend) {
+    std::vector<float> px(size_t(spec.width) * size_t(spec.height) * size_t(chend - chbegin));
+    if (!in->read_image(0, 0, chbegin, chend, TypeDesc::FLOAT, px.data())) fail(in->geterror());
+    return px;
+}
+
+OpenedImage open_image(const std::string &path, const FileLoc &loc, const std::string &what,
+                       ImageRead read) {
+    OpenedImage img;
+    img.loc = loc;
+    img.name = loc.file == path ? what : what + " \"" + path + "\"";
+    std::error_code ec;
+    const fs::file_status st = fs::status(path, ec);
+    if (!fs::exists(st)) img.fail("not found");
+    if (fs::is_directory(st)) img.fail("is a directory, not a file");
+    // A FIFO or device would block the reader or never end.
+    if (!fs::is_regular_file(st)) img.fail("not a regular file");
+    img.in = ImageInput::open(path);
+    if (!img.in) {
+        const std::string err = OIIO::geterror();
+        img.fail(err.empty() ? "not an image file OpenImageIO can read" : err);
+    }
+    img.spec = img.in->spec();
+    if (read == ImageRead::Whole)
+        img.check_read_whole();
+    else
+        check_image_size(img.spec.width, img.spec.height, img.spec.nchannels, img.name, loc);
+    return img;
+}
 
 std::string temp_path_for(const std::string &path) {
     return path + ".tmp-" + std::to_string(long(::getpid()));
@@ -274,20 +293,20 @@ void write_rgb8(const std::string &path, uint32_t width, uint32_t height,
 }
 
 std::vector<std::string> image_channel_names(const std::string &path) {
-    return open_image(path).spec.channelnames;
+    return open_image(path, FileLoc{path, 0}, "image", ImageRead::Streamed).spec.channelnames;
 }
 
 std::vector<float> read_image_channels(const std::string &path,
                                        const std::vector<std::string> &channel_names,
                                        uint32_t &width, uint32_t &height) {
-    OpenedImage img = open_image(path);
+    OpenedImage img = open_image(path, FileLoc{path, 0}, "image");
     std::vector<int> idx;
     for (const std::string &name : channel_names) {
         int i = channel_index(img.spec, name);
         if (i < 0) throw std::runtime_error(path + ": no channel '" + name + "'");
         idx.push_back(i);
     }
-    std::vector<float> all = read_all_channels(img, path);
+    std::vector<float> all = read_all_channels(img);
     width = uint32_t(img.spec.width);
     height = uint32_t(img.spec.height);
     const size_t pixels = size_t(width) * height, nc = size_t(img.spec.nchannels);
@@ -298,7 +317,7 @@ std::vector<float> read_image_channels(const std::string &path,
 }
 
 sampling::RgbImage read_image_rgb(const std::string &path) {
-    OpenedImage img = open_image(path);
+    OpenedImage img = open_image(path, FileLoc{path, 0}, "image");
     const ImageSpec &s = img.spec;
     int ch[3] = {channel_index(s, "R"), channel_index(s, "G"), channel_index(s, "B")};
     if (ch[0] < 0 || ch[1] < 0 || ch[2] < 0) {
@@ -324,7 +343,7 @@ sampling::RgbImage read_image_rgb(const std::string &path) {
             ch[0] = ch[1] = ch[2] = 0;
         }
     }
-    std::vector<float> all = read_all_channels(img, path);
+    std::vector<float> all = read_all_channels(img);
     sampling::RgbImage out(uint32_t(s.width), uint32_t(s.height));
     const size_t pixels = out.pixel_count(), nc = size_t(s.nchannels);
     for (size_t p = 0; p < pixels; ++p)

@@ -23,12 +23,16 @@
 // written directly, and a directory is an error.
 #pragma once
 
+#include <OpenImageIO/imageio.h>
+
 #include <cstdint>
 #include <functional>
+#include <memory>
 #include <stdexcept>
 #include <string>
 #include <vector>
 
+#include "renderer/util/error.h"
 #include "sampling/film.h"
 #include "sampling/image_metrics.h"
 
@@ -72,6 +76,37 @@ void write_film_exr(const std::string &path, const sampling::Film &film,
 /// extension (e.g. .png), atomically. Throws std::runtime_error on failure.
 void write_rgb8(const std::string &path, uint32_t width, uint32_t height,
                 const std::vector<uint8_t> &rgb);
+
+/// How much of an image its reader takes into memory: open_image checks the memory budget
+/// only for images read whole (a tiled, mipmapped texture is streamed by OIIO's TextureSystem).
+enum class ImageRead { Whole, Streamed };
+
+/// An image file opened for reading by open_image, its header checked. `name` is how messages
+/// name it: `what "path"`, or only `what` when the location already is the file.
+struct OpenedImage {
+    std::unique_ptr<OIIO::ImageInput> in;
+    OIIO::ImageSpec spec;  ///< subimage 0, MIP level 0
+    FileLoc loc;
+    std::string name;
+
+    /// Throws SceneError(loc, "cannot read <name>: <why>").
+    [[noreturn]] void fail(const std::string &why) const;
+    /// The memory check of an image read whole (check_image), for one opened as Streamed that
+    /// is read whole after all.
+    void check_read_whole() const;
+    /// Channels [chbegin, chend) of every pixel as float, interleaved, row-major.
+    std::vector<float> read_floats(int chbegin, int chend);
+};
+
+/// The one way a scene, a reference or a checkpoint opens an image file: checks that `path`
+/// exists and is a regular file, that OpenImageIO can read it, that its width, height and
+/// channels are above 0 and its size within kMaxImagePixels (renderer/util/limits.h) and, for
+/// ImageRead::Whole, that width x height x channels floats fit the memory budget -- all before
+/// any pixel is allocated. `what` names the image in messages ("image", "normalmap",
+/// "checkpoint"). Throws SceneError "file:line: cannot read what \"path\": why", or the
+/// limit's message.
+OpenedImage open_image(const std::string &path, const FileLoc &loc, const std::string &what,
+                       ImageRead read = ImageRead::Whole);
 
 /// Reads the colour of an image file as linear float RGB: channels R, G, B when present, else
 /// the first layer with channels "<layer>.R/G/B", else a single channel replicated to grey,

@@ -129,8 +129,8 @@ void check_mesh(uint64_t vertices, uint64_t triangles, const std::string &what,
                  loc);
 }
 
-void check_image(int64_t width, int64_t height, int64_t channels, const std::string &what,
-                 const FileLoc &loc) {
+void check_image_size(int64_t width, int64_t height, int64_t channels, const std::string &what,
+                      const FileLoc &loc) {
     if (width <= 0 || height <= 0 || channels <= 0)
         throw SceneError(loc, what + " is empty (" + std::to_string(width) + "x" +
                                   std::to_string(height) + ", " + std::to_string(channels) +
@@ -140,6 +140,12 @@ void check_image(int64_t width, int64_t height, int64_t channels, const std::str
         throw SceneError(loc, what + " is " + std::to_string(width) + "x" +
                                   std::to_string(height) + ", more than the maximum of " +
                                   std::to_string(kMaxImagePixels) + " pixels");
+}
+
+void check_image(int64_t width, int64_t height, int64_t channels, const std::string &what,
+                 const FileLoc &loc) {
+    check_image_size(width, height, channels, what, loc);
+    const uint64_t pixels = uint64_t(width) * uint64_t(height);
     // Read as float, then converted (RGB floats or a distribution): about 3 copies.
     check_memory(mul_sat(pixels, mul_sat(uint64_t(channels), 12)),
                  what + " (" + std::to_string(width) + "x" + std::to_string(height) + ")", loc);

@@ -71,7 +71,13 @@ void check_film(int64_t width, int64_t height, int64_t spp, const FileLoc &loc,
 void check_mesh(uint64_t vertices, uint64_t triangles, const std::string &what,
                 const FileLoc &loc);
 
-/// Checks an image that is about to be read whole (width x height x channels floats).
+/// Checks an image's header: width, height and channels above 0 and at most kMaxImagePixels
+/// pixels. `what` names the image ("image \"x.png\""). Throws SceneError(loc, ...).
+void check_image_size(int64_t width, int64_t height, int64_t channels, const std::string &what,
+                      const FileLoc &loc);
+
+/// Checks an image that is about to be read whole (width x height x channels floats):
+/// check_image_size, then the memory budget.
 void check_image(int64_t width, int64_t height, int64_t channels, const std::string &what,
                  const FileLoc &loc);
 

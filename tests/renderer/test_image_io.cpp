@@ -364,3 +364,47 @@ TEST_CASE("write_film_exr writes only the AOV layers the film keeps") {
                   film.albedo_rgb());
     }
 }
+
+TEST_CASE("open_image checks every image's header before its pixels are allocated") {
+    fs::path dir = fresh_dir("open_image");
+    const FileLoc loc{"scene.pbrt", 7};
+    auto error_of = [&](const std::string &path, ImageRead read = ImageRead::Whole) {
+        try {
+            open_image(path, loc, "normalmap", read);
+        } catch (const SceneError &e) {
+            return std::string(e.what());
+        }
+        return std::string();
+    };
+    const std::string missing = (dir / "missing.png").string();
+    CHECK(error_of(missing) == "scene.pbrt:7: cannot read normalmap \"" + missing + "\": not found");
+    CHECK(error_of(dir.string()).find("is a directory") != std::string::npos);
+    // A PNG header claiming 60000x60000 RGB (43 GB as floats), with almost no data after it.
+    const unsigned char huge[] = {
+        0x89, 0x50, 0x4e, 0x47, 0x0d, 0x0a, 0x1a, 0x0a, 0x00, 0x00, 0x00, 0x0d, 0x49, 0x48,
+        0x44, 0x52, 0x00, 0x00, 0xea, 0x60, 0x00, 0x00, 0xea, 0x60, 0x08, 0x02, 0x00, 0x00,
+        0x00, 0x0f, 0xb0, 0xe2, 0x15, 0x00, 0x00, 0x00, 0x0c, 0x49, 0x44, 0x41, 0x54, 0x78,
+        0x9c, 0x63, 0x60, 0xa0, 0x3d, 0x00, 0x00, 0x00, 0x64, 0x00, 0x01, 0x86, 0x64, 0x3c,
+        0x35, 0x00, 0x00, 0x00, 0x00, 0x49, 0x45, 0x4e, 0x44, 0xae, 0x42, 0x60, 0x82};
+    const std::string huge_path = (dir / "huge.png").string();
+    std::ofstream(huge_path, std::ios::binary)
+        .write(reinterpret_cast<const char *>(huge), sizeof huge);
+    for (ImageRead read : {ImageRead::Whole, ImageRead::Streamed})
+        CHECK(error_of(huge_path, read).find("is 60000x60000, more than the maximum") !=
+              std::string::npos);
+    const std::string garbage = (dir / "garbage.exr").string();
+    std::ofstream(garbage) << "not an image";
+    CHECK(error_of(garbage).rfind("scene.pbrt:7: cannot read normalmap \"" + garbage + "\": ", 0) ==
+          0);
+
+    // A good image: the spec and the pixels; a location naming the file is not repeated.
+    const std::string good = (dir / "good.exr").string();
+    write_exr(good, 2, 1, {{"", {"R", "G", "B"}, {1, 2, 3, 4, 5, 6}, false}});
+    OpenedImage img = open_image(good, FileLoc{good, 0}, "checkpoint");
+    CHECK(img.spec.width == 2);
+    CHECK(img.spec.height == 1);
+    CHECK(img.name == "checkpoint");
+    CHECK(img.read_floats(1, 3) == std::vector<float>{2, 3, 5, 6});
+    CHECK_THROWS_WITH_AS(img.fail("why"), (good + ":0: cannot read checkpoint: why").c_str(),
+                         SceneError);
+}
