@@ -532,42 +532,73 @@ int MaterialSet::default_index() {
     return default_;
 }
 
-int MaterialSet::build(const std::string &name, const std::map<std::string, MaterialDesc> &descs,
-                       TextureSet &tex, int depth) {
-    if (auto it = by_name_.find(name); it != by_name_.end()) return it->second;
-    auto dit = descs.find(name);
-    if (dit == descs.end()) return -1;
-    const MaterialDesc &d = dit->second;
-    if (depth > 16) throw SceneError(d.loc, "material \"" + name + "\": mix nesting too deep");
+namespace {
+
+/// The material's "normalmap" image (a file name relative to the scene's directory, else to
+/// the file that defines the material), or null without one.
+std::shared_ptr<const NormalMapImage> load_normal_map(const MaterialDesc &d) {
     const ParamSet &ps = d.params;
-    std::unique_ptr<Material> m;
-    std::string type = d.type;
-    const FloatTexture *displacement = nullptr;
-    if (ps.find("displacement")) {
-        // A constant displacement moves nothing: only textures bump the normal.
-        if (!ps.get_texture("displacement").empty())
-            displacement = tex.float_param(ps, "displacement", 0.f);
+    if (!ps.find("normalmap")) return nullptr;
+    std::string file = ps.get_string("normalmap", "");
+    if (file.empty()) return nullptr;
+    namespace fs = std::filesystem;
+    fs::path path(file);
+    if (path.is_relative() && !d.base_dir.empty()) {
+        std::error_code ec;
+        path = fs::path(d.base_dir) / file;
+        if (!fs::exists(path, ec)) path = fs::path(d.loc.file).parent_path() / file;
     }
-    std::shared_ptr<const NormalMapImage> normal_map;
-    if (ps.find("normalmap")) {
-        std::string file = ps.get_string("normalmap", "");
-        if (!file.empty()) {
-            namespace fs = std::filesystem;
-            fs::path path(file);
-            if (path.is_relative() && !d.base_dir.empty()) {
-                std::error_code ec;
-                path = fs::path(d.base_dir) / file;
-                if (!fs::exists(path, ec)) path = fs::path(d.loc.file).parent_path() / file;
-            }
-            normal_map = NormalMapImage::load(path.string(), d.loc);
+    return NormalMapImage::load(path.string(), d.loc);
+}
+
+/// pbrt-v4 "hair" (HairMaterial::Create): the first of sigma_a, a colour and the melanin
+/// concentrations that is given wins; without any, brown hair (eumelanin 1.3). Newer pbrt-v4
+/// names the colour "reflectance", older "color": both are read.
+std::unique_ptr<Material> make_hair(const ParamSet &ps, TextureSet &tex) {
+    const Param *colour = ps.find("reflectance");
+    std::string colour_name = "reflectance";
+    if (const Param *old_name = ps.find("color")) {
+        if (colour) {
+            warn(old_name->loc, "hair: \"color\" ignored since \"reflectance\" was given");
+            old_name->used = true;
+        } else {
+            colour = old_name;
+            colour_name = "color";
         }
     }
-    auto mark = [&](const char *p) {
-        if (const Param *x = ps.find(p)) x->used = true;
+    auto ignore = [&](const Param *p, const std::string &why) {
+        if (!p)
+            return;
+        warn(p->loc, "hair: \"" + p->name + "\" ignored since \"" + why + "\" was given");
+        p->used = true;
     };
-    mark("displacement");
-    mark("normalmap");
+    const Param *eu = ps.find("eumelanin"), *pheo = ps.find("pheomelanin");
+    const SpectrumTexture *sigma_a = nullptr, *color = nullptr;
+    const FloatTexture *eumelanin = nullptr, *pheomelanin = nullptr;
+    if (ps.find("sigma_a")) {
+        sigma_a = tex.spectrum_param(ps, "sigma_a", std::nullopt, true);
+        ignore(colour, "sigma_a");
+        ignore(eu, "sigma_a");
+        ignore(pheo, "sigma_a");
+    } else if (colour) {
+        color = tex.spectrum_param(ps, colour_name, std::nullopt, false);
+        ignore(eu, colour_name);
+        ignore(pheo, colour_name);
+    } else {
+        eumelanin = tex.float_param(ps, "eumelanin", eu || pheo ? 0.f : 1.3f);
+        pheomelanin = tex.float_param(ps, "pheomelanin", 0.f);
+    }
+    return std::make_unique<HairMaterial>(
+        sigma_a, color, eumelanin, pheomelanin, tex.float_param(ps, "eta", 1.55f),
+        tex.float_param(ps, "beta_m", 0.3f), tex.float_param(ps, "beta_n", 0.3f),
+        tex.float_param(ps, "alpha", 2.f));
+}
 
+/// Every material type but "mix" and "hair", from its pbrt-v4 parameters and defaults
+/// (pbrt-v4 src/pbrt/materials.cpp, each type's Create; see shading/bsdf.h).
+std::unique_ptr<Material> make_material(const MaterialDesc &d, TextureSet &tex) {
+    const ParamSet &ps = d.params;
+    const std::string &type = d.type;
     if (type == "coatedconductor") {
         // pbrt-v4 CoatedConductorMaterial::Create: "interface.*" for the coat, "conductor.*" or
         // "reflectance" for the metal; "thickness" 0.01, "albedo" 0 and "g" 0 for the layer's
@@ -578,86 +609,82 @@ int MaterialSet::build(const std::string &name, const std::map<std::string, Mate
             eta = tex.spectrum_param(ps, "conductor.eta", copper(false), true);
             k = tex.spectrum_param(ps, "conductor.k", copper(true), true);
         }
-        m = std::make_unique<CoatedConductorMaterial>(
+        return std::make_unique<CoatedConductorMaterial>(
             scalar_eta(ps, d.loc, 1.5f, "interface.eta"), Roughness::from(ps, tex, "interface."),
             eta, k, refl, Roughness::from(ps, tex, "conductor."),
             tex.float_param(ps, "thickness", 0.01f),
             tex.spectrum_param(ps, "albedo", Rgb(0.f), false), tex.float_param(ps, "g", 0.f),
             LayerWalk::from(ps, d.loc));
-    } else if (type == "diffusetransmission") {
+    }
+    if (type == "diffusetransmission") {
         // pbrt-v4 DiffuseTransmissionMaterial: reflectance 0.25, transmittance 0.25, both times
         // "scale" (a float, 1) and clamped to [0, 1].
-        m = std::make_unique<DiffuseTransmissionMaterial>(
+        return std::make_unique<DiffuseTransmissionMaterial>(
             tex.spectrum_param(ps, "reflectance", Rgb(0.25f), true),
             tex.spectrum_param(ps, "transmittance", Rgb(0.25f), true), ps.get_float("scale", 1.f));
     }
-
-    if (m) {
-        // Built above.
-    } else if (type == "diffuse") {
-        m = std::make_unique<DiffuseMaterial>(
+    if (type == "diffuse")
+        return std::make_unique<DiffuseMaterial>(
             tex.spectrum_param(ps, "reflectance", Rgb(0.5f), false));
-    } else if (type == "conductor") {
+    if (type == "conductor") {
         const SpectrumTexture *refl = tex.spectrum_param(ps, "reflectance", std::nullopt, false);
         const SpectrumTexture *eta = nullptr, *k = nullptr;
         if (!refl) {
             eta = tex.spectrum_param(ps, "eta", copper(false), true);
             k = tex.spectrum_param(ps, "k", copper(true), true);
         }
-        m = std::make_unique<ConductorMaterial>(eta, k, refl, Roughness::from(ps, tex));
-    } else if (type == "dielectric") {
-        m = std::make_unique<DielectricMaterial>(scalar_eta(ps, d.loc, 1.5f),
-                                                 Roughness::from(ps, tex));
-    } else if (type == "thindielectric") {
-        m = std::make_unique<ThinDielectricMaterial>(scalar_eta(ps, d.loc, 1.5f));
-    } else if (type == "coateddiffuse") {
+        return std::make_unique<ConductorMaterial>(eta, k, refl, Roughness::from(ps, tex));
+    }
+    if (type == "dielectric")
+        return std::make_unique<DielectricMaterial>(scalar_eta(ps, d.loc, 1.5f),
+                                                    Roughness::from(ps, tex));
+    if (type == "thindielectric")
+        return std::make_unique<ThinDielectricMaterial>(scalar_eta(ps, d.loc, 1.5f));
+    if (type == "coateddiffuse") {
         // pbrt-v4 CoatedDiffuseMaterial::Create.
-        m = std::make_unique<CoatedDiffuseMaterial>(
+        return std::make_unique<CoatedDiffuseMaterial>(
             tex.spectrum_param(ps, "reflectance", Rgb(0.5f), false),
             tex.spectrum_param(ps, "albedo", Rgb(0.f), false),
             tex.float_param(ps, "thickness", 0.01f), tex.float_param(ps, "g", 0.f),
             scalar_eta(ps, d.loc, 1.5f), Roughness::from(ps, tex), LayerWalk::from(ps, d.loc));
-    } else if (type == "hair") {
-        // pbrt-v4 HairMaterial::Create: the first of sigma_a, a colour and the melanin
-        // concentrations that is given wins; without any, brown hair (eumelanin 1.3). Newer
-        // pbrt-v4 names the colour "reflectance", older "color": both are read.
-        const Param *colour = ps.find("reflectance");
-        std::string colour_name = "reflectance";
-        if (const Param *old_name = ps.find("color")) {
-            if (colour) {
-                warn(old_name->loc, "hair: \"color\" ignored since \"reflectance\" was given");
-                old_name->used = true;
-            } else {
-                colour = old_name;
-                colour_name = "color";
-            }
-        }
-        auto ignore = [&](const Param *p, const std::string &why) {
-            if (!p)
-                return;
-            warn(p->loc, "hair: \"" + p->name + "\" ignored since \"" + why + "\" was given");
-            p->used = true;
-        };
-        const Param *eu = ps.find("eumelanin"), *pheo = ps.find("pheomelanin");
-        const SpectrumTexture *sigma_a = nullptr, *color = nullptr;
-        const FloatTexture *eumelanin = nullptr, *pheomelanin = nullptr;
-        if (ps.find("sigma_a")) {
-            sigma_a = tex.spectrum_param(ps, "sigma_a", std::nullopt, true);
-            ignore(colour, "sigma_a");
-            ignore(eu, "sigma_a");
-            ignore(pheo, "sigma_a");
-        } else if (colour) {
-            color = tex.spectrum_param(ps, colour_name, std::nullopt, false);
-            ignore(eu, colour_name);
-            ignore(pheo, colour_name);
-        } else {
-            eumelanin = tex.float_param(ps, "eumelanin", eu || pheo ? 0.f : 1.3f);
-            pheomelanin = tex.float_param(ps, "pheomelanin", 0.f);
-        }
-        m = std::make_unique<HairMaterial>(
-            sigma_a, color, eumelanin, pheomelanin, tex.float_param(ps, "eta", 1.55f),
-            tex.float_param(ps, "beta_m", 0.3f), tex.float_param(ps, "beta_n", 0.3f),
-            tex.float_param(ps, "alpha", 2.f));
+    }
+    if (type == "interface" || type == "" || type == "none")
+        return std::make_unique<InterfaceMaterial>();
+    // pbrt-v4 stops on a material type it does not know (pbrt-v3's "plastic", "matte",
+    // "uber"... among them); its own types that Tessera lacks render as diffuse.
+    if (type != "measured" && type != "subsurface")
+        throw SceneError(d.loc, "unknown material type \"" + type + "\"");
+    warn(d.loc, "material type \"" + type +
+                    "\" is not supported; rendering it as diffuse (reflectance 0.5)");
+    auto m = std::make_unique<DiffuseMaterial>(
+        tex.spectrum_param(ps, "reflectance", Rgb(0.5f), false));
+    for (const Param &p : ps.params) p.used = true;
+    return m;
+}
+
+}  // namespace
+
+int MaterialSet::build(const std::string &name, const std::map<std::string, MaterialDesc> &descs,
+                       TextureSet &tex, int depth) {
+    if (auto it = by_name_.find(name); it != by_name_.end()) return it->second;
+    auto dit = descs.find(name);
+    if (dit == descs.end()) return -1;
+    const MaterialDesc &d = dit->second;
+    if (depth > 16) throw SceneError(d.loc, "material \"" + name + "\": mix nesting too deep");
+    const ParamSet &ps = d.params;
+    std::unique_ptr<Material> m;
+    const FloatTexture *displacement = nullptr;
+    if (ps.find("displacement")) {
+        // A constant displacement moves nothing: only textures bump the normal.
+        if (!ps.get_texture("displacement").empty())
+            displacement = tex.float_param(ps, "displacement", 0.f);
+    }
+    std::shared_ptr<const NormalMapImage> normal_map = load_normal_map(d);
+    for (const char *p : {"displacement", "normalmap"})
+        if (const Param *x = ps.find(p)) x->used = true;
+
+    if (d.type == "hair") {
+        m = make_hair(ps, tex);
         // pbrt-v4's hair has neither: the shading normal is the fiber's own.
         if (displacement || normal_map) {
             warn(d.loc,
@@ -666,9 +693,7 @@ int MaterialSet::build(const std::string &name, const std::map<std::string, Mate
             displacement = nullptr;
             normal_map.reset();
         }
-    } else if (type == "interface" || type == "" || type == "none") {
-        m = std::make_unique<InterfaceMaterial>();
-    } else if (type == "mix") {
+    } else if (d.type == "mix") {
         std::vector<std::string> names = ps.get_strings("materials");
         if (names.size() != 2)
             throw SceneError(d.loc, "mix material \"" + name + "\" needs exactly two \"materials\"");
@@ -682,15 +707,7 @@ int MaterialSet::build(const std::string &name, const std::map<std::string, Mate
         }
         m = std::make_unique<MixMaterial>(ma, mb, tex.float_param(ps, "amount", 0.5f));
     } else {
-        // pbrt-v4 stops on a material type it does not know (pbrt-v3's "plastic", "matte",
-        // "uber"... among them); its own types that Tessera lacks render as diffuse.
-        if (type != "measured" && type != "subsurface")
-            throw SceneError(d.loc, "unknown material type \"" + type + "\"");
-        warn(d.loc, "material type \"" + type +
-                        "\" is not supported; rendering it as diffuse (reflectance 0.5)");
-        m = std::make_unique<DiffuseMaterial>(
-            tex.spectrum_param(ps, "reflectance", Rgb(0.5f), false));
-        for (const Param &p : ps.params) p.used = true;
+        m = make_material(d, tex);
     }
     ps.report_unused("material \"" + name + "\"");
     if (displacement) m->set_displacement(displacement);
