@@ -13,7 +13,7 @@ namespace tessera::sampling {
 /// A progressive sampler's settings (the `--sampler adaptive:key=value` keys).
 struct ProgressiveSettings {
     /// adaptive:error: region error (Dammertz e_b; sampling/region_tree.h) below which a region
-    /// stops. Chosen with `tessera converge` (formerly scripts/bench_adaptive.py).
+    /// stops. Chosen with `tessera converge`.
     double error = 0.001;
     /// min-spp: samples per pixel of the uniform first pass. MoonRay's uniform start is 16
     /// samples; fewer shows 8x8 block artefacts.
