@@ -73,46 +73,46 @@ struct Strategies {
     bool nee, bsdf_emission;
 };
 
-/// Adds the radiance of the infinite lights along an escaped ray, MIS-weighted against light
-/// sampling.
+/// Adds emitted radiance Le found by the path: in full at the camera ray or after a specular
+/// bounce, else MIS-weighted (power heuristic) against light sampling, whose solid-angle pdf
+/// `light_pdf()` gives (evaluated only when it is needed).
+template <class LightPdf>
+[[gnu::always_inline]] inline void add_emitted(Rgb Le, const BounceState &b, Strategies st,
+                                               Rgb beta, Rgb &L, LightPdf light_pdf) {
+    if (b.depth == 0 || b.specular_bounce) {
+        L += beta * Le;
+    } else if (st.bsdf_emission) {
+        float w = 1.f;
+        if (st.nee) w = power_heuristic(b.p_bsdf, light_pdf());
+        L += beta * Le * w;
+    }
+}
+
+/// Adds the radiance of the infinite lights along an escaped ray.
 [[gnu::always_inline]] inline void add_escaped_radiance(const Scene &sc, const Ray &ray,
                                                         const BounceState &b, Strategies st,
                                                         Rgb beta, Rgb &L) {
     for (const Light *light : sc.infinite_lights) {
         Rgb Le = light->Le(ray.d);
         if (Le.is_black()) continue;
-        if (b.depth == 0 || b.specular_bounce) {
-            L += beta * Le;
-        } else if (st.bsdf_emission) {
-            float w = 1.f;
-            if (st.nee) {
-                float p_l = sc.light_sampler->pmf(light) *
-                            light->pdf_li(b.prev_ctx, ray.d, Vec3f(), Vec3f());
-                w = power_heuristic(b.p_bsdf, p_l);
-            }
-            L += beta * Le * w;
-        }
+        add_emitted(Le, b, st, beta, L, [&] {
+            return sc.light_sampler->pmf(light) *
+                   light->pdf_li(b.prev_ctx, ray.d, Vec3f(), Vec3f());
+        });
     }
 }
 
-/// Adds the emission of the area light the ray hit, MIS-weighted against light sampling.
+/// Adds the emission of the area light the ray hit.
 [[gnu::always_inline]] inline void add_area_emission(const Scene &sc, const Ray &ray,
                                                      const SurfaceInteraction &si,
                                                      const BounceState &b, Strategies st,
                                                      Rgb beta, Rgb &L) {
     Rgb Le = si.area_light->L(si.p, si.n, si.uv, si.wo);
     if (Le.is_black()) return;
-    if (b.depth == 0 || b.specular_bounce) {
-        L += beta * Le;
-    } else if (st.bsdf_emission) {
-        float w = 1.f;
-        if (st.nee) {
-            float p_l = sc.light_sampler->pmf(si.area_light) *
-                        si.area_light->pdf_li(b.prev_ctx, normalize(ray.d), si.p, si.n);
-            w = power_heuristic(b.p_bsdf, p_l);
-        }
-        L += beta * Le * w;
-    }
+    add_emitted(Le, b, st, beta, L, [&] {
+        return sc.light_sampler->pmf(si.area_light) *
+               si.area_light->pdf_li(b.prev_ctx, normalize(ray.d), si.p, si.n);
+    });
 }
 
 /// Next-event estimation at `si`: one light sample with its shadow ray, MIS-weighted against
