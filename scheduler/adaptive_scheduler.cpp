@@ -194,6 +194,10 @@ struct AdaptiveScheduler::RenderContext {
     Clock::time_point start, deadline;
     bool timed = false;
     uint64_t first_pass = 0, pass_end = 0;
+    tbb::task_arena *arena = nullptr;  // the workers' arena while the passes run
+    // Catch-up passes (see run_passes): wanted at all, and the schedule's last target.
+    bool catch_up = false;
+    uint32_t last_target = 0;
     std::atomic<uint64_t> next_work{0};
     std::atomic<bool> stop{false}, stop_cancel{false}, stop_time{false}, converged{false};
     std::atomic<uint32_t> open_mask{0};  // bit q: quadrant q's tree incomplete
@@ -263,6 +267,9 @@ struct AdaptiveScheduler::RenderContext {
 /// batch when its path ends, so a batch of many samples keeps its lanes full (64 against 8:
 /// Cornell box +4% samples/s).
 constexpr uint32_t kSampleBatch = 64;
+
+/// Most catch-up passes after the schedule (see AdaptiveScheduler::run_passes).
+constexpr uint64_t kCatchUpPasses = 4;
 
 struct AdaptiveScheduler::WorkerState {
     uint64_t samples = 0, rays = 0, tiles_rendered = 0, tiles_skipped = 0, pixels_skipped = 0;
@@ -536,87 +543,103 @@ void AdaptiveScheduler::publish_tile_error(size_t t) {
     tile_unknown_[t].store(unknown, std::memory_order_relaxed);
 }
 
-void AdaptiveScheduler::process_tile(size_t t, uint32_t pass, RenderContext &ctx, WorkerState &ws) {
-    const Tile &tile = tiles_[t];
-    const uint32_t q = tile_quadrant_[t];
-    Quadrant &quad = *quadrants_[q];
+namespace {
 
-    // The same tile's previous pass may still be in flight on another thread (more threads than
-    // tiles, or a slow tile): wait for it, so each pixel has one writer and stays in order.
-    std::atomic<uint32_t> &done = tile_done_[t];
-    uint32_t d = done.load(std::memory_order_acquire);
-    if (d != pass) {
-        auto t0 = Clock::now();
-        while (d != pass) {
-            done.wait(d, std::memory_order_acquire);
-            d = done.load(std::memory_order_acquire);
-        }
-        ws.tile_wait_s += seconds_since(t0);
-    }
-    if (options_.tile_hook)
-        options_.tile_hook(tile, pass);
+// Refining, a pixel grows from its own count by the pass rule (16, 32, 64, +64, ...) instead of
+// jumping to the pass's target: a region reopened after sitting out many passes (the pass index
+// runs fast while every tile is skipped) would otherwise take thousands of samples at once, far
+// beyond what the lowered target asks for. Also at most the level's cap
+// (AdaptiveOptions::refine_spp_ratio): a pixel whose region cannot get below the target (a
+// firefly, a leaf sharing a tile with frozen errors) would otherwise take every sample of the
+// budget.
+[[gnu::always_inline]] inline uint32_t refined_pixel_target(const AdaptiveOptions &o,
+                                                            uint32_t target, uint32_t first,
+                                                            uint32_t pixel_cap) {
+    uint32_t pixel_target = std::min(target, grown_target(o, first));
+    if (pixel_cap > 0)
+        pixel_target = std::min(pixel_target, std::max(first, pixel_cap));
+    return pixel_target;
+}
 
-    auto t0 = Clock::now();
-    const uint32_t target = pass_target(options_, pass);
-    const uint32_t pixel_cap = refine_ ? ctx.pixel_cap.load(std::memory_order_relaxed) : 0;
-    const uint32_t tw = tile.width(), n = tile.pixel_count();
-    std::fill_n(ws.active.begin(), n, uint8_t(1));
-    if (adaptive_ && pass > 0) {
-        // Copy what the tile needs out of the tree under the stripe's shared lock.
-        const uint32_t s = quad.locks.index(tile.tx, tile.ty);
-        ws.reader_wait_s += quad.locks.lock_shared(s);
-        quad.live().active_rects(
-            sampling::PixelBounds{int(tile.x0), int(tile.y0), int(tile.x1), int(tile.y1)}, ws.rects);
-        quad.locks.unlock_shared(s);
-        // Refining: pixels below the level's floor count as active wherever they are (the
-        // tile's pixels belong to this thread now, so their counts can be read).
-        const uint32_t floor = refine_ ? ctx.pixel_floor.load(std::memory_order_relaxed) : 0;
-        bool below_floor = false;
-        if (floor > 0)
-            for (uint32_t i = 0; i < n && !below_floor; ++i)
-                below_floor = film_.sample_count(tile.x0 + i % tw, tile.y0 + i / tw) < floor;
-        if (ws.rects.empty() && !below_floor && !options_.visit_hook) {
-            // The whole tile lies in converged regions: it costs the tree check above and
-            // nothing else (no pixel is read or written).
-            ws.pixels_skipped += n;
-            ++ws.tiles_skipped;
-            ws.render_s += seconds_since(t0);
-            done.store(pass + 1, std::memory_order_release);
-            done.notify_all();
-            return;
-        }
-        std::fill_n(ws.active.begin(), n, uint8_t(0));
-        for (const sampling::PixelBounds &r : ws.rects) {
-            int x0 = std::max(r.x0, int(tile.x0)), x1 = std::min(r.x1, int(tile.x1));
-            int y0 = std::max(r.y0, int(tile.y0)), y1 = std::min(r.y1, int(tile.y1));
-            for (int y = y0; y < y1; ++y)
-                for (int x = x0; x < x1; ++x)
-                    ws.active[size_t(y - int(tile.y0)) * tw + size_t(x - int(tile.x0))] = 1;
-        }
-        if (below_floor)
-            for (uint32_t i = 0; i < n; ++i)
-                if (film_.sample_count(tile.x0 + i % tw, tile.y0 + i / tw) < floor)
-                    ws.active[i] = 1;
-    }
+}  // namespace
 
-    bool any_active = false, any_new_error = false;
+// What one tile visit took, and the camera samples still waiting in the worker's batch.
+struct AdaptiveScheduler::TileTally {
     uint64_t samples = 0, rays = 0, shadow_avoided = 0;
-    uint32_t batched = 0;  // camera samples waiting in ws.batch_cs
-    auto evaluate_batch = [&] {
+    uint32_t batched = 0;  // camera samples waiting in WorkerState::batch_cs
+
+    // Evaluates the waiting camera samples and adds them to the film in order.
+    [[gnu::always_inline]] void flush(const SampleSource &source, sampling::Film &film,
+                                      WorkerState &ws) {
         if (batched == 0)
             return;
-        source_.evaluate_batch(std::span<const CameraSample>(ws.batch_cs.data(), batched),
-                               std::span<Sample>(ws.batch_out.data(), batched));
+        source.evaluate_batch(std::span<const CameraSample>(ws.batch_cs.data(), batched),
+                              std::span<Sample>(ws.batch_out.data(), batched));
         for (uint32_t k = 0; k < batched; ++k) {
             const Sample &s = ws.batch_out[k];
             const CameraSample &cs = ws.batch_cs[k];
             rays += s.rays;
             shadow_avoided += s.shadow_rays_avoided;
-            film_.add_sample(cs.px, cs.py, cs.index, s);
+            film.add_sample(cs.px, cs.py, cs.index, s);
         }
         samples += batched;
         batched = 0;
-    };
+    }
+};
+
+void AdaptiveScheduler::wait_for_tile_pass(std::atomic<uint32_t> &done, uint32_t pass,
+                                           WorkerState &ws) {
+    uint32_t d = done.load(std::memory_order_acquire);
+    if (d == pass)
+        return;
+    auto t0 = Clock::now();
+    while (d != pass) {
+        done.wait(d, std::memory_order_acquire);
+        d = done.load(std::memory_order_acquire);
+    }
+    ws.tile_wait_s += seconds_since(t0);
+}
+
+bool AdaptiveScheduler::select_active_pixels(const Tile &tile, Quadrant &quad, uint32_t pass,
+                                             RenderContext &ctx, WorkerState &ws) {
+    const uint32_t tw = tile.width(), n = tile.pixel_count();
+    std::fill_n(ws.active.begin(), n, uint8_t(1));
+    if (!adaptive_ || pass == 0)
+        return true;
+    // Copy what the tile needs out of the tree under the stripe's shared lock.
+    const uint32_t s = quad.locks.index(tile.tx, tile.ty);
+    ws.reader_wait_s += quad.locks.lock_shared(s);
+    quad.live().active_rects(
+        sampling::PixelBounds{int(tile.x0), int(tile.y0), int(tile.x1), int(tile.y1)}, ws.rects);
+    quad.locks.unlock_shared(s);
+    // Refining: pixels below the level's floor count as active wherever they are (the tile's
+    // pixels belong to this thread now, so their counts can be read).
+    const uint32_t floor = refine_ ? ctx.pixel_floor.load(std::memory_order_relaxed) : 0;
+    bool below_floor = false;
+    if (floor > 0)
+        for (uint32_t i = 0; i < n && !below_floor; ++i)
+            below_floor = film_.sample_count(tile.x0 + i % tw, tile.y0 + i / tw) < floor;
+    if (ws.rects.empty() && !below_floor && !options_.visit_hook)
+        return false;
+    std::fill_n(ws.active.begin(), n, uint8_t(0));
+    for (const sampling::PixelBounds &r : ws.rects) {
+        int x0 = std::max(r.x0, int(tile.x0)), x1 = std::min(r.x1, int(tile.x1));
+        int y0 = std::max(r.y0, int(tile.y0)), y1 = std::min(r.y1, int(tile.y1));
+        for (int y = y0; y < y1; ++y)
+            for (int x = x0; x < x1; ++x)
+                ws.active[size_t(y - int(tile.y0)) * tw + size_t(x - int(tile.x0))] = 1;
+    }
+    if (below_floor)
+        for (uint32_t i = 0; i < n; ++i)
+            if (film_.sample_count(tile.x0 + i % tw, tile.y0 + i / tw) < floor)
+                ws.active[i] = 1;
+    return true;
+}
+
+bool AdaptiveScheduler::sample_tile(const Tile &tile, uint32_t target, uint32_t pixel_cap,
+                                    WorkerState &ws, TileTally &tally) {
+    const uint32_t tw = tile.width(), n = tile.pixel_count();
+    bool any_active = false;
     for (uint32_t i = 0; i < n; ++i) {
         const uint32_t px = tile.x0 + i % tw, py = tile.y0 + i / tw;
         const uint32_t first = film_.sample_count(px, py);
@@ -627,74 +650,104 @@ void AdaptiveScheduler::process_tile(size_t t, uint32_t pass, RenderContext &ctx
             continue;
         }
         any_active = true;
-        // Refining, a pixel grows from its own count by the pass rule (16, 32, 64, +64, ...)
-        // instead of jumping to the pass's target: a region reopened after sitting out many
-        // passes (the pass index runs fast while every tile is skipped) would otherwise take
-        // thousands of samples at once, far beyond what the lowered target asks for.
-        // Also at most the level's cap (AdaptiveOptions::refine_spp_ratio): a pixel whose
-        // region cannot get below the target (a firefly, a leaf sharing a tile with frozen
-        // errors) would otherwise take every sample of the budget.
-        uint32_t pixel_target = target;
-        if (refine_) {
-            pixel_target = std::min(target, grown_target(options_, first));
-            if (pixel_cap > 0)
-                pixel_target = std::min(pixel_target, std::max(first, pixel_cap));
-        }
+        const uint32_t pixel_target =
+            refine_ ? refined_pixel_target(options_, target, first, pixel_cap) : target;
         // The film's count is the pixel's next index: each pixel continues its own sequence.
         // The samples of the tile's pixels go to the source in batches of up to kSampleBatch
         // (the path tracer traces them 8 at a time and refills its lanes from the batch, so
         // the batch may run across pixels) and reach the film in pixel and index order.
         for (uint32_t index = first; index < pixel_target;) {
-            const uint32_t m = std::min<uint32_t>(kSampleBatch - batched, pixel_target - index);
+            const uint32_t m =
+                std::min<uint32_t>(kSampleBatch - tally.batched, pixel_target - index);
             for (uint32_t k = 0; k < m; ++k)
-                ws.batch_cs[batched + k] = camera_sample(options_.seed, px, py, index + k);
-            batched += m;
+                ws.batch_cs[tally.batched + k] = camera_sample(options_.seed, px, py, index + k);
+            tally.batched += m;
             index += m;
-            if (batched == kSampleBatch)
-                evaluate_batch();
+            if (tally.batched == kSampleBatch)
+                tally.flush(source_, film_, ws);
         }
         ws.after[i] = std::max(first, pixel_target);
     }
-    evaluate_batch();
-    if (adaptive_)
-        for (uint32_t i = 0; i < n; ++i) {
-            if (ws.after[i] == ws.before[i])
-                continue;
-            const uint32_t px = tile.x0 + i % tw, py = tile.y0 + i / tw;
-            error_snapshot_[size_t(py) * film_.width() + px].store(
-                sampling::pixel_error(film_.pixel_stats(px, py), options_.min_samples_for_error),
-                std::memory_order_relaxed);
-            any_new_error = true;
-        }
-    if (any_new_error)
+    tally.flush(source_, film_, ws);
+    return any_active;
+}
+
+bool AdaptiveScheduler::snapshot_tile_errors(const Tile &tile, const WorkerState &ws) {
+    const uint32_t tw = tile.width(), n = tile.pixel_count();
+    bool any_new_error = false;
+    for (uint32_t i = 0; i < n; ++i) {
+        if (ws.after[i] == ws.before[i])
+            continue;
+        const uint32_t px = tile.x0 + i % tw, py = tile.y0 + i / tw;
+        error_snapshot_[size_t(py) * film_.width() + px].store(
+            sampling::pixel_error(film_.pixel_stats(px, py), options_.min_samples_for_error),
+            std::memory_order_relaxed);
+        any_new_error = true;
+    }
+    return any_new_error;
+}
+
+void AdaptiveScheduler::report_visit(const Tile &tile, uint32_t pass, uint32_t target, uint32_t q,
+                                     bool any_active, const WorkerState &ws) const {
+    const uint32_t n = tile.pixel_count();
+    TileVisit v;
+    v.tile = &tile;
+    v.pass = pass;
+    v.target = target;
+    v.quadrant = q;
+    v.skipped = !any_active;
+    v.active = std::span<const uint8_t>(ws.active.data(), n);
+    v.count_before = std::span<const uint32_t>(ws.before.data(), n);
+    v.count_after = std::span<const uint32_t>(ws.after.data(), n);
+    options_.visit_hook(v);
+}
+
+void AdaptiveScheduler::process_tile(size_t t, uint32_t pass, RenderContext &ctx, WorkerState &ws) {
+    const Tile &tile = tiles_[t];
+    const uint32_t q = tile_quadrant_[t];
+    Quadrant &quad = *quadrants_[q];
+
+    // The same tile's previous pass may still be in flight on another thread (more threads than
+    // tiles, or a slow tile): wait for it, so each pixel has one writer and stays in order.
+    std::atomic<uint32_t> &done = tile_done_[t];
+    wait_for_tile_pass(done, pass, ws);
+    if (options_.tile_hook)
+        options_.tile_hook(tile, pass);
+
+    auto t0 = Clock::now();
+    const uint32_t target = pass_target(options_, pass);
+    const uint32_t pixel_cap = refine_ ? ctx.pixel_cap.load(std::memory_order_relaxed) : 0;
+    if (!select_active_pixels(tile, quad, pass, ctx, ws)) {
+        // The whole tile lies in converged regions: it costs the tree check and nothing else
+        // (no pixel is read or written).
+        ws.pixels_skipped += tile.pixel_count();
+        ++ws.tiles_skipped;
+        ws.render_s += seconds_since(t0);
+        done.store(pass + 1, std::memory_order_release);
+        done.notify_all();
+        return;
+    }
+
+    TileTally tally;
+    const bool any_active = sample_tile(tile, target, pixel_cap, ws, tally);
+    if (adaptive_ && snapshot_tile_errors(tile, ws))
         publish_tile_error(t);
     if (any_active)
         ++ws.tiles_rendered;
     else
         ++ws.tiles_skipped;
-    ws.samples += samples;
-    ws.rays += rays;
-    ws.shadow_rays_avoided += shadow_avoided;
+    ws.samples += tally.samples;
+    ws.rays += tally.rays;
+    ws.shadow_rays_avoided += tally.shadow_avoided;
     ws.render_s += seconds_since(t0);
     if (ctx.progress)
-        ctx.progress->add(samples, rays);
-    if (refine_ && samples) {
-        quad.pass_samples.fetch_add(samples, std::memory_order_relaxed);
-        ctx.film_samples.fetch_add(samples, std::memory_order_relaxed);
+        ctx.progress->add(tally.samples, tally.rays);
+    if (refine_ && tally.samples) {
+        quad.pass_samples.fetch_add(tally.samples, std::memory_order_relaxed);
+        ctx.film_samples.fetch_add(tally.samples, std::memory_order_relaxed);
     }
-
-    if (options_.visit_hook) {
-        TileVisit v;
-        v.tile = &tile;
-        v.pass = pass;
-        v.target = target;
-        v.quadrant = q;
-        v.skipped = !any_active;
-        v.active = std::span<const uint8_t>(ws.active.data(), n);
-        v.count_before = std::span<const uint32_t>(ws.before.data(), n);
-        v.count_after = std::span<const uint32_t>(ws.after.data(), n);
-        options_.visit_hook(v);
-    }
+    if (options_.visit_hook)
+        report_visit(tile, pass, target, q, any_active, ws);
     // Release: the next pass of this tile (maybe on another thread) sees our film writes.
     done.store(pass + 1, std::memory_order_release);
     done.notify_all();
@@ -944,213 +997,220 @@ void run_workers(tbb::task_arena &arena, uint32_t threads, Ctx &ctx, const Body 
 
 }  // namespace
 
-AdaptiveStats AdaptiveScheduler::render(const std::atomic<bool> *cancel) {
-    RenderContext ctx;
-    ctx.cancel = cancel;
-    ctx.start = Clock::now();
-    ctx.timed = options_.time_s > 0;
-    ctx.deadline = ctx.start + std::chrono::duration_cast<Clock::duration>(
-                                   std::chrono::duration<double>(ctx.timed ? options_.time_s : 0));
-    AdaptiveStats stats;
-    stats.threads = threads_;
-    const uint32_t w = film_.width(), h = film_.height();
-    const uint64_t pixels = uint64_t(w) * h;
-    const uint64_t nan_before = film_.nan_count();
-
-    // Resume: start at the first pass some pixel still needs.
-    uint32_t min_taken = std::numeric_limits<uint32_t>::max();
-    for (uint32_t y = 0; y < h; ++y)
-        for (uint32_t x = 0; x < w; ++x)
-            min_taken = std::min(min_taken, film_.sample_count(x, y));
+uint64_t AdaptiveScheduler::scheduled_passes() const {
     uint64_t n_passes = pass_count(options_);
     // Refining, pixels grow from their own counts (process_tile): one reopened in the last pass
     // needs up to pass_count more passes to reach max_spp. Bounded, so an spp budget still ends.
     if (refine_ && options_.max_spp > 0)
         n_passes *= 2;
     if (options_.max_passes > 0) n_passes = std::min<uint64_t>(n_passes, options_.max_passes);
+    return n_passes;
+}
+
+uint64_t AdaptiveScheduler::resume_pass_of_film(uint64_t n_passes) const {
+    if (options_.start_pass >= 0)
+        return uint64_t(options_.start_pass);
+    // Resume: start at the first pass some pixel still needs.
+    uint32_t min_taken = std::numeric_limits<uint32_t>::max();
+    for (uint32_t y = 0; y < film_.height(); ++y)
+        for (uint32_t x = 0; x < film_.width(); ++x)
+            min_taken = std::min(min_taken, film_.sample_count(x, y));
     uint64_t p0 = 0;
-    if (options_.start_pass >= 0) {
-        p0 = uint64_t(options_.start_pass);
-    } else {
-        while (p0 < n_passes && pass_target(options_, p0) <= min_taken)
-            ++p0;
+    while (p0 < n_passes && pass_target(options_, p0) <= min_taken)
+        ++p0;
+    return p0;
+}
+
+void AdaptiveScheduler::reset_for_render(RenderContext &ctx, uint64_t p0) {
+    const uint64_t pixels = uint64_t(film_.width()) * film_.height();
+    for (size_t t = 0; t < tiles_.size(); ++t)
+        tile_done_[t].store(uint32_t(p0));
+    uint32_t open = 0;
+    for (int q = 0; q < 4; ++q) {
+        Quadrant &quad = *quadrants_[size_t(q)];
+        quad.left.store(int64_t(quad.tiles.size()));
+        quad.passes_done = 0;
+        quad.rebuild_requests = 0;
+        quad.rebuilds = 0;
+        quad.rebuild_ms_sum = quad.rebuild_ms_max = 0;
+        quad.error_sum = 0;
+        quad.unknown_pixels = quad.rect.area() > 0 ? uint64_t(quad.rect.area()) : 0;
+        const double area = std::max(1.0, double(pixels));
+        // Unbuilt trees: every pixel active until the first rebuild.
+        quad.trees[0] = sampling::RegionTree(quad.rect, quad.grown, area);
+        quad.trees[1] = sampling::RegionTree(quad.rect, quad.grown, area);
+        if (!quad.rect.empty())
+            open |= 1u << q;
     }
-    stats.first_pass = uint32_t(std::min<uint64_t>(p0, std::numeric_limits<uint32_t>::max()));
-    stats.resume_pass = stats.first_pass;
-    ctx.first_pass = p0;
-    ctx.pass_end = n_passes;
+    ctx.open_mask.store(open);
+    ctx.nonempty_mask = open;
+    ctx.pixels = std::max<uint64_t>(1, pixels);
+    ctx.film_samples.store(film_.total_samples());
+    for (int q = 0; q < 4; ++q)
+        quadrants_[size_t(q)]->pass_samples.store(0);
+    if (refine_)
+        ctx.raise_guards(options_);
+}
+
+void AdaptiveScheduler::warm_rebuild_buffers() {
+    // Allocate and touch every rebuild buffer now (both tree copies' summed-area tables and the
+    // error image), so that page faults do not land inside the timed, lock-holding rebuilds. A
+    // rebuild from an all-unknown error image leaves each tree one open leaf: every pixel stays
+    // active until the first real rebuild.
+    for (int q = 0; q < 4; ++q) {
+        Quadrant &quad = *quadrants_[size_t(q)];
+        if (quad.rect.empty()) continue;
+        const sampling::PixelBounds &g = quad.grown;
+        const int ts = int(kTileSize);
+        sampling::CellErrorImage &cells = quad.cells;
+        cells.cell = ts;
+        cells.cols = (g.width() + ts - 1) / ts;
+        cells.rows = (g.height() + ts - 1) / ts;
+        cells.sum.assign(size_t(cells.cols) * size_t(cells.rows), 0.0);
+        cells.unknown.assign(cells.sum.size(), 1u);
+        sampling::RegionTreeParams warm;
+        warm.target = options_.error_target;
+        quad.trees[0].rebuild_cells(cells, warm);
+        quad.trees[1].rebuild_cells(cells, warm);
+    }
+}
+
+void AdaptiveScheduler::rebuild_all_at_pass_end(RenderContext &ctx, WorkerState &ws,
+                                                bool pass_end) {
+    rebuild_all(ctx, ws, pass_end);
+    if (ctx.open_mask.load() == 0)
+        ctx.converged = ctx.stop = true;
+}
+
+bool AdaptiveScheduler::catch_up_wanted(uint64_t pass, RenderContext &ctx, WorkerState &ws) const {
+    return pass < ctx.pass_end + kCatchUpPasses && !ctx.stop.load() &&
+           ctx.open_mask.load() != 0 && open_pixel_below(ctx.last_target, ws);
+}
+
+void AdaptiveScheduler::run_pass(uint64_t pass, RenderContext &ctx) {
     const size_t n_tiles = tiles_.size();
-
-    if (pixels > 0 && p0 < n_passes) {
-        ctx.progress = std::make_unique<AdaptiveProgress>(options_.progress, pixels,
-                                                          film_.total_samples(), options_);
-        for (size_t t = 0; t < n_tiles; ++t)
-            tile_done_[t].store(uint32_t(p0));
-        WorkerState main_ws;
-        uint32_t open = 0;
-        for (int q = 0; q < 4; ++q) {
-            Quadrant &quad = *quadrants_[size_t(q)];
-            quad.left.store(int64_t(quad.tiles.size()));
-            quad.passes_done = 0;
-            quad.rebuild_requests = 0;
-            quad.rebuilds = 0;
-            quad.rebuild_ms_sum = quad.rebuild_ms_max = 0;
-            quad.error_sum = 0;
-            quad.unknown_pixels = quad.rect.area() > 0 ? uint64_t(quad.rect.area()) : 0;
-            const double area = std::max(1.0, double(pixels));
-            // Unbuilt trees: every pixel active until the first rebuild.
-            quad.trees[0] = sampling::RegionTree(quad.rect, quad.grown, area);
-            quad.trees[1] = sampling::RegionTree(quad.rect, quad.grown, area);
-            if (!quad.rect.empty())
-                open |= 1u << q;
+    ctx.next_work.store(0);
+    auto worker = [&](uint32_t) {
+        WorkerState ws;
+        while (!ctx.should_stop()) {
+            uint64_t t = ctx.next_work.fetch_add(1, std::memory_order_relaxed);
+            if (t >= n_tiles)
+                break;
+            process_tile(size_t(t), uint32_t(pass), ctx, ws);
         }
-        ctx.open_mask.store(open);
-        ctx.nonempty_mask = open;
-        ctx.pixels = std::max<uint64_t>(1, pixels);
-        ctx.film_samples.store(film_.total_samples());
-        for (int q = 0; q < 4; ++q)
-            quadrants_[size_t(q)]->pass_samples.store(0);
-        if (refine_)
-            ctx.raise_guards(options_);
-        if (adaptive_) {
-            // Allocate and touch every rebuild buffer now (both tree copies' summed-area tables
-            // and the error image), so that page faults do not land inside the timed,
-            // lock-holding rebuilds. A rebuild from an all-unknown error image leaves each tree
-            // one open leaf: every pixel stays active until the first real rebuild.
-            for (int q = 0; q < 4; ++q) {
-                Quadrant &quad = *quadrants_[size_t(q)];
-                if (quad.rect.empty()) continue;
-                const sampling::PixelBounds &g = quad.grown;
-                const int ts = int(kTileSize);
-                sampling::CellErrorImage &cells = quad.cells;
-                cells.cell = ts;
-                cells.cols = (g.width() + ts - 1) / ts;
-                cells.rows = (g.height() + ts - 1) / ts;
-                cells.sum.assign(size_t(cells.cols) * size_t(cells.rows), 0.0);
-                cells.unknown.assign(cells.sum.size(), 1u);
-                sampling::RegionTreeParams warm;
-                warm.target = options_.error_target;
-                quad.trees[0].rebuild_cells(cells, warm);
-                quad.trees[1].rebuild_cells(cells, warm);
-            }
-            init_error_snapshot();
-            // Resuming past the uniform start: the trees come from the film's samples.
-            if (p0 > 0) {
-                rebuild_all(ctx, main_ws, false);
-                if (ctx.open_mask.load() == 0)
-                    ctx.converged = ctx.stop = true;
-            }
+        ws.merge_into(ctx);
+    };
+    run_workers(*ctx.arena, threads_, ctx, worker);
+}
+
+void AdaptiveScheduler::run_barrier_free(RenderContext &ctx, WorkerState &main_ws,
+                                         AdaptiveStats &stats) {
+    // One work index over (pass, tile) pairs for the whole render.
+    const size_t n_tiles = tiles_.size();
+    ctx.next_work.store(ctx.first_pass * n_tiles);
+    const uint64_t w_end = ctx.pass_end * n_tiles;
+    auto worker = [&](uint32_t) {
+        WorkerState ws;
+        while (!ctx.should_stop()) {
+            uint64_t item = ctx.next_work.fetch_add(1, std::memory_order_relaxed);
+            if (item >= w_end)
+                break;
+            size_t t = size_t(item % n_tiles);
+            process_tile(t, uint32_t(item / n_tiles), ctx, ws);
+            finish_tile_nonbarrier(t, ctx, ws);
         }
+        ws.merge_into(ctx);
+    };
+    if (!ctx.stop.load())
+        run_workers(*ctx.arena, threads_, ctx, worker);
+    for (const auto &q : quadrants_)
+        stats.passes = std::max(stats.passes, q->passes_done.load());
+    if (!ctx.catch_up || ctx.stop.load())
+        return;
+    // All rebuilds are done, but a quadrant's last one may predate its neighbours' last samples
+    // in its margin: rebuild from the finished film first. (Not after a stop: converged, out of
+    // time or cancelled.)
+    rebuild_all_at_pass_end(ctx, main_ws, true);
+    for (uint64_t pass = ctx.pass_end; catch_up_wanted(pass, ctx, main_ws); ++pass) {
+        run_pass(pass, ctx);
+        ++stats.catch_up_passes;
+        ctx.progress->set_passes(uint32_t(pass + 1));
+        rebuild_all_at_pass_end(ctx, main_ws, true);
+    }
+    stats.passes += stats.catch_up_passes;
+}
 
-        // More threads than cores: lift TBB's limit for this render, or the arena silently runs
-        // with fewer workers.
-        std::unique_ptr<tbb::global_control> allow_more;
-        if (int(threads_) > tbb::info::default_concurrency())
-            allow_more = std::make_unique<tbb::global_control>(
-                tbb::global_control::max_allowed_parallelism, size_t(threads_));
-        tbb::task_arena arena{int(threads_)};
+void AdaptiveScheduler::run_deterministic(RenderContext &ctx, WorkerState &main_ws,
+                                          AdaptiveStats &stats) {
+    // A barrier after each pass, then all rebuilds on this thread.
+    for (uint64_t pass = ctx.first_pass; !ctx.stop.load(); ++pass) {
+        if (pass >= ctx.pass_end && !(ctx.catch_up && catch_up_wanted(pass, ctx, main_ws)))
+            break;
+        if (pass >= ctx.pass_end)
+            ++stats.catch_up_passes;
+        run_pass(pass, ctx);
+        if (ctx.stop_cancel.load() || ctx.stop_time.load())
+            break;
+        ++stats.passes;
+        ctx.progress->set_passes(uint32_t(pass + 1));
+        if (adaptive_)
+            rebuild_all_at_pass_end(ctx, main_ws, true);
+    }
+}
 
-        // Catch-up passes. The schedule can end with a region open whose pixels are below its
-        // last target: the last rebuild cut the tree anew (float splits), or, barrier-free, a
-        // thread running ahead on a stale tree (its neighbour's rebuild preempted) skipped a
-        // region in the last passes that a later rebuild reopened. The render would end
-        // unconverged below max_spp. While that holds, run one more pass (a new pass index
-        // whose target is the last one: no pixel goes past the schedule's final count, so the
-        // sample budget means the same), at most kCatchUpPasses. Only where the schedule ends at
-        // the spp cap (not when max_passes cut it short) and not when refining (there the
-        // passes already continue while the budget allows, and a pass may lower the target).
-        constexpr uint64_t kCatchUpPasses = 4;
-        const uint32_t last_target = n_passes > 0 ? pass_target(options_, n_passes - 1) : 0;
-        const bool catch_up = adaptive_ && !refine_ && n_passes > 0 &&
-                              pass_target(options_, n_passes) == last_target;
-        auto catch_up_wanted = [&](uint64_t pass) {
-            return pass < n_passes + kCatchUpPasses && !ctx.stop.load() &&
-                   ctx.open_mask.load() != 0 && open_pixel_below(last_target, main_ws);
-        };
-
-        // One pass over every tile, all threads, ending at a barrier (the deterministic passes
-        // and the catch-up passes).
-        auto run_pass = [&](uint64_t pass) {
-            ctx.next_work.store(0);
-            auto worker = [&](uint32_t) {
-                WorkerState ws;
-                while (!ctx.should_stop()) {
-                    uint64_t t = ctx.next_work.fetch_add(1, std::memory_order_relaxed);
-                    if (t >= n_tiles)
-                        break;
-                    process_tile(size_t(t), uint32_t(pass), ctx, ws);
-                }
-                ws.merge_into(ctx);
-            };
-            run_workers(arena, threads_, ctx, worker);
-        };
-
-        if (!options_.deterministic) {
-            // Barrier-free: one work index over (pass, tile) pairs for the whole render.
-            ctx.next_work.store(p0 * n_tiles);
-            const uint64_t w_end = n_passes * n_tiles;
-            auto worker = [&](uint32_t) {
-                WorkerState ws;
-                while (!ctx.should_stop()) {
-                    uint64_t item = ctx.next_work.fetch_add(1, std::memory_order_relaxed);
-                    if (item >= w_end)
-                        break;
-                    size_t t = size_t(item % n_tiles);
-                    process_tile(t, uint32_t(item / n_tiles), ctx, ws);
-                    finish_tile_nonbarrier(t, ctx, ws);
-                }
-                ws.merge_into(ctx);
-            };
-            if (!ctx.stop.load())
-                run_workers(arena, threads_, ctx, worker);
-            for (const auto &q : quadrants_)
-                stats.passes = std::max(stats.passes, q->passes_done.load());
-            if (catch_up && !ctx.stop.load()) {
-                // All rebuilds are done, but a quadrant's last one may predate its neighbours'
-                // last samples in its margin: rebuild from the finished film first. (Not after
-                // a stop: converged, out of time or cancelled.)
-                rebuild_all(ctx, main_ws, true);
-                if (ctx.open_mask.load() == 0)
-                    ctx.converged = ctx.stop = true;
-                for (uint64_t pass = n_passes; catch_up_wanted(pass); ++pass) {
-                    run_pass(pass);
-                    ++stats.catch_up_passes;
-                    ctx.progress->set_passes(uint32_t(pass + 1));
-                    rebuild_all(ctx, main_ws, true);
-                    if (ctx.open_mask.load() == 0)
-                        ctx.converged = ctx.stop = true;
-                }
-                stats.passes += stats.catch_up_passes;
-            }
-        } else {
-            // Deterministic: barrier after each pass, then all rebuilds on this thread.
-            for (uint64_t pass = p0; !ctx.stop.load(); ++pass) {
-                if (pass >= n_passes && !(catch_up && catch_up_wanted(pass)))
-                    break;
-                if (pass >= n_passes)
-                    ++stats.catch_up_passes;
-                run_pass(pass);
-                if (ctx.stop_cancel.load() || ctx.stop_time.load())
-                    break;
-                ++stats.passes;
-                ctx.progress->set_passes(uint32_t(pass + 1));
-                if (adaptive_) {
-                    rebuild_all(ctx, main_ws, true);
-                    if (ctx.open_mask.load() == 0)
-                        ctx.converged = ctx.stop = true;
-                }
-            }
-        }
-        main_ws.merge_into(ctx);
-        ctx.progress->finish();
-        // tile_done_[t] is the next pass tile t needs (all workers have joined).
-        uint32_t resume = std::numeric_limits<uint32_t>::max();
-        for (size_t t = 0; t < n_tiles; ++t)
-            resume = std::min(resume, tile_done_[t].load(std::memory_order_acquire));
-        if (n_tiles > 0)
-            stats.resume_pass = resume;
+void AdaptiveScheduler::run_passes(RenderContext &ctx, AdaptiveStats &stats) {
+    const uint64_t pixels = uint64_t(film_.width()) * film_.height();
+    const uint64_t p0 = ctx.first_pass, n_passes = ctx.pass_end;
+    ctx.progress = std::make_unique<AdaptiveProgress>(options_.progress, pixels,
+                                                      film_.total_samples(), options_);
+    reset_for_render(ctx, p0);
+    WorkerState main_ws;
+    if (adaptive_) {
+        warm_rebuild_buffers();
+        init_error_snapshot();
+        // Resuming past the uniform start: the trees come from the film's samples.
+        if (p0 > 0)
+            rebuild_all_at_pass_end(ctx, main_ws, false);
     }
 
+    // More threads than cores: lift TBB's limit for this render, or the arena silently runs with
+    // fewer workers.
+    std::unique_ptr<tbb::global_control> allow_more;
+    if (int(threads_) > tbb::info::default_concurrency())
+        allow_more = std::make_unique<tbb::global_control>(
+            tbb::global_control::max_allowed_parallelism, size_t(threads_));
+    tbb::task_arena arena{int(threads_)};
+    ctx.arena = &arena;
+
+    // Catch-up passes. The schedule can end with a region open whose pixels are below its last
+    // target: the last rebuild cut the tree anew (float splits), or, barrier-free, a thread
+    // running ahead on a stale tree (its neighbour's rebuild preempted) skipped a region in the
+    // last passes that a later rebuild reopened. The render would end unconverged below max_spp.
+    // While that holds, run one more pass (a new pass index whose target is the last one: no
+    // pixel goes past the schedule's final count, so the sample budget means the same), at most
+    // kCatchUpPasses. Only where the schedule ends at the spp cap (not when max_passes cut it
+    // short) and not when refining (there the passes already continue while the budget allows,
+    // and a pass may lower the target).
+    ctx.last_target = n_passes > 0 ? pass_target(options_, n_passes - 1) : 0;
+    ctx.catch_up = adaptive_ && !refine_ && n_passes > 0 &&
+                   pass_target(options_, n_passes) == ctx.last_target;
+
+    if (!options_.deterministic)
+        run_barrier_free(ctx, main_ws, stats);
+    else
+        run_deterministic(ctx, main_ws, stats);
+    main_ws.merge_into(ctx);
+    ctx.progress->finish();
+    ctx.arena = nullptr;
+    // tile_done_[t] is the next pass tile t needs (all workers have joined).
+    uint32_t resume = std::numeric_limits<uint32_t>::max();
+    for (size_t t = 0; t < tiles_.size(); ++t)
+        resume = std::min(resume, tile_done_[t].load(std::memory_order_acquire));
+    if (!tiles_.empty())
+        stats.resume_pass = resume;
+}
+
+void AdaptiveScheduler::collect_stats(const RenderContext &ctx, AdaptiveStats &stats) const {
     const AdaptiveStats &t = ctx.totals;
     stats.samples = t.samples;
     stats.rays = t.rays;
@@ -1180,17 +1240,45 @@ AdaptiveStats AdaptiveScheduler::render(const std::atomic<bool> *cancel) {
     stats.converged = ctx.converged.load();
     stats.refinements = ctx.refinements;
     stats.final_error_target = refine_ ? target_at(ctx.level) : options_.error_target;
-    stats.nan_samples = film_.nan_count() - nan_before;
-    stats.error_estimate = sampling::image_error(film_, options_.min_samples_for_error);
+}
+
+void AdaptiveScheduler::fill_spp_histogram(AdaptiveStats &stats) const {
     stats.spp_histogram.assign(1, 0);
-    for (uint32_t y = 0; y < h; ++y)
-        for (uint32_t x = 0; x < w; ++x) {
+    for (uint32_t y = 0; y < film_.height(); ++y)
+        for (uint32_t x = 0; x < film_.width(); ++x) {
             uint32_t c = film_.sample_count(x, y);
             size_t k = c == 0 ? 0 : size_t(std::bit_width(c));
             if (stats.spp_histogram.size() <= k)
                 stats.spp_histogram.resize(k + 1, 0);
             ++stats.spp_histogram[k];
         }
+}
+
+AdaptiveStats AdaptiveScheduler::render(const std::atomic<bool> *cancel) {
+    RenderContext ctx;
+    ctx.cancel = cancel;
+    ctx.start = Clock::now();
+    ctx.timed = options_.time_s > 0;
+    ctx.deadline = ctx.start + std::chrono::duration_cast<Clock::duration>(
+                                   std::chrono::duration<double>(ctx.timed ? options_.time_s : 0));
+    AdaptiveStats stats;
+    stats.threads = threads_;
+    const uint64_t pixels = uint64_t(film_.width()) * film_.height();
+    const uint64_t nan_before = film_.nan_count();
+
+    const uint64_t n_passes = scheduled_passes();
+    const uint64_t p0 = resume_pass_of_film(n_passes);
+    stats.first_pass = uint32_t(std::min<uint64_t>(p0, std::numeric_limits<uint32_t>::max()));
+    stats.resume_pass = stats.first_pass;
+    ctx.first_pass = p0;
+    ctx.pass_end = n_passes;
+    if (pixels > 0 && p0 < n_passes)
+        run_passes(ctx, stats);
+
+    collect_stats(ctx, stats);
+    stats.nan_samples = film_.nan_count() - nan_before;
+    stats.error_estimate = sampling::image_error(film_, options_.min_samples_for_error);
+    fill_spp_histogram(stats);
     stats.wall_s = seconds_since(ctx.start);
     stats.lock_wait_fraction =
         stats.wall_s > 0 ? stats.lock_wait_s / (stats.wall_s * double(threads_)) : 0.0;

@@ -303,8 +303,43 @@ class AdaptiveScheduler {
     struct Quadrant;
     struct RenderContext;
     struct WorkerState;
+    struct TileTally;
+
+    /// Passes of the schedule: pass_count, doubled when refining to max_spp, cut at max_passes.
+    uint64_t scheduled_passes() const;
+    /// The pass render() starts at: start_pass, or the first pass some pixel of the film needs.
+    uint64_t resume_pass_of_film(uint64_t n_passes) const;
+    /// Resets the tiles' pass counters, the quadrants, the open mask and the guards.
+    void reset_for_render(RenderContext &ctx, uint64_t p0);
+    /// Allocates and touches the rebuild buffers before the timed rebuilds.
+    void warm_rebuild_buffers();
+    /// Passes ctx.first_pass .. ctx.pass_end (and the catch-up passes) on the workers.
+    void run_passes(RenderContext &ctx, AdaptiveStats &stats);
+    void run_barrier_free(RenderContext &ctx, WorkerState &main_ws, AdaptiveStats &stats);
+    void run_deterministic(RenderContext &ctx, WorkerState &main_ws, AdaptiveStats &stats);
+    /// One pass over every tile, all threads, ending at a barrier (the deterministic passes and
+    /// the catch-up passes).
+    void run_pass(uint64_t pass, RenderContext &ctx);
+    bool catch_up_wanted(uint64_t pass, RenderContext &ctx, WorkerState &ws) const;
+    /// rebuild_all, then converged (and stop) when every quadrant is complete.
+    void rebuild_all_at_pass_end(RenderContext &ctx, WorkerState &ws, bool pass_end);
+    /// The workers' sums, rebuild times and stop reasons into `stats`.
+    void collect_stats(const RenderContext &ctx, AdaptiveStats &stats) const;
+    void fill_spp_histogram(AdaptiveStats &stats) const;
 
     void process_tile(size_t t, uint32_t pass, RenderContext &ctx, WorkerState &ws);
+    /// Waits until tile `done` has completed the passes before `pass`.
+    static void wait_for_tile_pass(std::atomic<uint32_t> &done, uint32_t pass, WorkerState &ws);
+    /// Marks the tile's active pixels in ws.active; false when the tile is skipped whole.
+    bool select_active_pixels(const Tile &tile, Quadrant &quad, uint32_t pass,
+                              RenderContext &ctx, WorkerState &ws);
+    /// Takes the active pixels' samples of the pass; true when some pixel was active.
+    bool sample_tile(const Tile &tile, uint32_t target, uint32_t pixel_cap, WorkerState &ws,
+                     TileTally &tally);
+    /// Stores the new errors of the pixels that took samples; true when there was one.
+    bool snapshot_tile_errors(const Tile &tile, const WorkerState &ws);
+    void report_visit(const Tile &tile, uint32_t pass, uint32_t target, uint32_t q,
+                      bool any_active, const WorkerState &ws) const;
     void finish_tile_nonbarrier(size_t t, RenderContext &ctx, WorkerState &ws);
     /// Rebuilds quadrant q's tree against the current target level; returns true when this
     /// rebuild completed the image and lowered the target (the caller rebuilds again).

@@ -438,11 +438,10 @@ std::string find_report_script() {
     return {};
 }
 
-ConvergeResult run_converge(const ConvergeOptions &opt_in) {
-    ConvergeOptions opt = opt_in;
-    if (opt.samplers.empty())
-        opt.samplers = {"uniform", "adaptive"};
-    check_options(opt);
+namespace {
+
+// The progressive samplers to compare (--sampler, default uniform and adaptive), parsed.
+std::vector<SamplerSpec> parse_converge_samplers(const ConvergeOptions &opt) {
     std::vector<SamplerSpec> specs;
     for (const std::string &s : opt.samplers) {
         specs.push_back(parse_sampler_spec(s));
@@ -452,6 +451,137 @@ ConvergeResult run_converge(const ConvergeOptions &opt_in) {
                              "progressive samplers (uniform, adaptive[:...]); compare real-time "
                              "samplers with scripts/bench_realtime.py");
     }
+    return specs;
+}
+
+// The reference of the reference cache (renderer/app/reference.h): rendered, or reused from the
+// cache, for the scene's size, depth and seed.
+Reference cached_converge_reference(const ConvergeOptions &opt, const Scene &scene,
+                                    const ConvergeResult &r) {
+    ReferenceSettings rs;
+    rs.width = r.width;
+    rs.height = r.height;
+    rs.spp = opt.reference_spp;
+    rs.max_depth = scene.settings.max_depth;
+    rs.seed = reference_seed(scene.settings.seed);
+    rs.threads = opt.threads;
+    rs.quiet = opt.quiet;
+    if (!opt.quiet)
+        std::fprintf(stderr, "tessera: reference: %u spp at %ux%u, seed %u (cache %s)\n", rs.spp,
+                     rs.width, rs.height, rs.seed,
+                     (opt.cache_dir.empty() ? default_cache_dir() : opt.cache_dir).c_str());
+    Reference ref = cached_reference(scene, opt.scene, rs, opt.cache_dir);
+    if (!opt.quiet)
+        std::fprintf(stderr, "tessera: reference %s: %s\n",
+                     ref.from_cache ? "reused from the cache" : "rendered and cached",
+                     ref.path.c_str());
+    return ref;
+}
+
+// Runs every sampler to every snapshot time, interleaved: snapshot k of every sampler before
+// snapshot k + 1 of any (SamplerRun). Fills r.samplers and r.rows (in the order taken).
+std::vector<std::unique_ptr<SamplerRun>> run_snapshots(const ConvergeOptions &opt,
+                                                       const std::vector<SamplerSpec> &specs,
+                                                       const Scene &scene, const Reference &ref,
+                                                       ConvergeResult &r) {
+    std::vector<std::unique_ptr<SamplerRun>> runs;
+    for (size_t i = 0; i < specs.size(); ++i) {
+        ConvergenceSampler s;
+        s.spec = opt.samplers[i];
+        s.description = specs[i].describe();
+        s.slug = make_slug(i, s.spec);
+        r.samplers.push_back(s);
+        runs.push_back(std::make_unique<SamplerRun>(scene, specs[i], opt));
+    }
+    const size_t n = r.snapshot_times.size();
+    for (size_t k = 0; k < n; ++k) {
+        for (size_t i = 0; i < runs.size(); ++i) {
+            if (runs[i]->stopped())
+                continue;
+            ConvergenceRow row =
+                runs[i]->advance(r.snapshot_times[k], uint32_t(k), k + 1 == n, ref.image);
+            row.sampler = i;
+            if (!opt.quiet)
+                std::fprintf(stderr,
+                             "tessera: %-28s snapshot %zu/%zu  t %7.3f s  spp %8.1f  relMSE %.4g  "
+                             "MSE %.4g%s\n",
+                             r.samplers[i].spec.c_str(), k + 1, n, row.time_s, row.mean_spp,
+                             row.metrics.rel_mse.total, row.metrics.mse.total,
+                             row.stopped ? "  (stopped: converged or --spp reached)" : "");
+            r.rows.push_back(row);
+        }
+    }
+    return runs;
+}
+
+// Orders the rows by sampler, picks the error levels and summarises every sampler against them.
+void summarise_converge(const ConvergeOptions &opt, ConvergeResult &r) {
+    // Rows per sampler, snapshots in order.
+    std::stable_sort(
+        r.rows.begin(), r.rows.end(),
+        [](const ConvergenceRow &a, const ConvergenceRow &b) { return a.sampler < b.sampler; });
+    r.threads =
+        opt.threads ? opt.threads : uint32_t(std::max(1u, std::thread::hardware_concurrency()));
+    r.levels = opt.target_errors.empty() ? default_levels(r) : opt.target_errors;
+    std::sort(r.levels.begin(), r.levels.end(), std::greater<>());
+    for (size_t i = 0; i < r.samplers.size(); ++i)
+        summarise_sampler(r, i);
+}
+
+// Images: the reference and each sampler's final snapshot (EXR with spp, PNG, spp PFM); returns
+// their entries of convergence.json.
+std::vector<nlohmann::json> write_converge_images(
+    const fs::path &images, const DisplayTransform &display, const Reference &ref,
+    const ConvergeResult &r, const std::vector<std::unique_ptr<SamplerRun>> &runs,
+    const std::vector<SamplerSpec> &specs) {
+    auto write_png = [&](const fs::path &p, const sampling::RgbImage &img) {
+        write_rgb8(p.string(), img.width, img.height, display.to_8bit(img));
+    };
+    write_png(images / "reference.png", ref.image);
+    std::vector<nlohmann::json> image_json;
+    for (size_t i = 0; i < r.samplers.size(); ++i) {
+        const std::string stem = r.samplers[i].slug;
+        const SamplerRun &f = *runs[i];
+        write_exr((images / (stem + ".exr")).string(), r.width, r.height,
+                  {ImageLayer{"", {"R", "G", "B"}, f.final_beauty.data, false},
+                   ImageLayer{"spp", {"Y"}, f.final_spp, true}});
+        write_png(images / (stem + ".png"), f.final_beauty);
+        write_pfm((images / (stem + ".spp.pfm")).string(), r.width, r.height, f.final_spp);
+        image_json.push_back({{"exr", "images/" + stem + ".exr"},
+                              {"png", "images/" + stem + ".png"},
+                              {"spp_pfm", "images/" + stem + ".spp.pfm"},
+                              {"adaptive", specs[i].name == "adaptive"}});
+    }
+    return image_json;
+}
+
+// report.html through scripts/convergence_report.py (--no-report skips it); a failure is a
+// warning, the CSV and JSON being complete.
+void write_converge_report(const ConvergeOptions &opt, const fs::path &dir, ConvergeResult &r) {
+    std::string script = opt.report_script.empty() ? find_report_script() : opt.report_script;
+    const char *py = std::getenv("TESSERA_PYTHON");
+    int rc = script.empty() ? 127 : run_program({py && *py ? py : "python3", script, dir.string()});
+    if (rc == 0) {
+        r.report_path = (dir / "report.html").string();
+        if (!opt.quiet)
+            std::fprintf(stderr, "tessera: wrote %s\n", r.report_path.c_str());
+    } else {
+        std::fprintf(stderr,
+                     "tessera: warning: report.html not written (%s); convergence.csv and "
+                     "convergence.json are complete (--no-report skips the report)\n",
+                     script.empty() ? "scripts/convergence_report.py not found"
+                                    : "the report script failed, see above");
+    }
+}
+
+}  // namespace
+
+ConvergeResult run_converge(const ConvergeOptions &opt_in) {
+    ConvergeOptions opt = opt_in;
+    if (opt.samplers.empty())
+        opt.samplers = {"uniform", "adaptive"};
+    check_options(opt);
+    const std::vector<SamplerSpec> specs = parse_converge_samplers(opt);
 
     // Bad input first, before anything is rendered or written.
     std::unique_ptr<Scene> scene = load_scene(opt.scene, opt.overrides);
@@ -477,25 +607,8 @@ ConvergeResult run_converge(const ConvergeOptions &opt_in) {
     if (!fs::is_directory(dir / "images", ec))
         throw SceneError(opt.output_dir + ":0: cannot create the output folder");
 
-    if (opt.reference.empty()) {
-        ReferenceSettings rs;
-        rs.width = r.width;
-        rs.height = r.height;
-        rs.spp = opt.reference_spp;
-        rs.max_depth = scene->settings.max_depth;
-        rs.seed = reference_seed(scene->settings.seed);
-        rs.threads = opt.threads;
-        rs.quiet = opt.quiet;
-        if (!opt.quiet)
-            std::fprintf(stderr, "tessera: reference: %u spp at %ux%u, seed %u (cache %s)\n",
-                         rs.spp, rs.width, rs.height, rs.seed,
-                         (opt.cache_dir.empty() ? default_cache_dir() : opt.cache_dir).c_str());
-        ref = cached_reference(*scene, opt.scene, rs, opt.cache_dir);
-        if (!opt.quiet)
-            std::fprintf(stderr, "tessera: reference %s: %s\n",
-                         ref.from_cache ? "reused from the cache" : "rendered and cached",
-                         ref.path.c_str());
-    }
+    if (opt.reference.empty())
+        ref = cached_converge_reference(opt, *scene, r);
     r.reference_path = ref.path;
     r.reference_cached = ref.from_cache;
     r.reference_rendered = ref.rendered;
@@ -504,65 +617,12 @@ ConvergeResult run_converge(const ConvergeOptions &opt_in) {
 
     const double first = opt.first_snapshot_s > 0 ? opt.first_snapshot_s : opt.time_s / 32;
     r.snapshot_times = sampling::log_spaced_times(first, opt.time_s, opt.snapshots);
-    std::vector<std::unique_ptr<SamplerRun>> runs;
-    for (size_t i = 0; i < specs.size(); ++i) {
-        ConvergenceSampler s;
-        s.spec = opt.samplers[i];
-        s.description = specs[i].describe();
-        s.slug = make_slug(i, s.spec);
-        r.samplers.push_back(s);
-        runs.push_back(std::make_unique<SamplerRun>(*scene, specs[i], opt));
-    }
-    // Interleaved: snapshot k of every sampler before snapshot k + 1 of any (SamplerRun).
-    const size_t n = r.snapshot_times.size();
-    for (size_t k = 0; k < n; ++k) {
-        for (size_t i = 0; i < runs.size(); ++i) {
-            if (runs[i]->stopped())
-                continue;
-            ConvergenceRow row =
-                runs[i]->advance(r.snapshot_times[k], uint32_t(k), k + 1 == n, ref.image);
-            row.sampler = i;
-            if (!opt.quiet)
-                std::fprintf(stderr,
-                             "tessera: %-28s snapshot %zu/%zu  t %7.3f s  spp %8.1f  relMSE %.4g  "
-                             "MSE %.4g%s\n",
-                             r.samplers[i].spec.c_str(), k + 1, n, row.time_s, row.mean_spp,
-                             row.metrics.rel_mse.total, row.metrics.mse.total,
-                             row.stopped ? "  (stopped: converged or --spp reached)" : "");
-            r.rows.push_back(row);
-        }
-    }
-    // Rows per sampler, snapshots in order.
-    std::stable_sort(
-        r.rows.begin(), r.rows.end(),
-        [](const ConvergenceRow &a, const ConvergenceRow &b) { return a.sampler < b.sampler; });
-    r.threads =
-        opt.threads ? opt.threads : uint32_t(std::max(1u, std::thread::hardware_concurrency()));
-    r.levels = opt.target_errors.empty() ? default_levels(r) : opt.target_errors;
-    std::sort(r.levels.begin(), r.levels.end(), std::greater<>());
-    for (size_t i = 0; i < r.samplers.size(); ++i)
-        summarise_sampler(r, i);
+    const std::vector<std::unique_ptr<SamplerRun>> runs =
+        run_snapshots(opt, specs, *scene, ref, r);
+    summarise_converge(opt, r);
 
-    // Images: the reference and each sampler's final snapshot (EXR with spp, PNG, spp PFM).
-    const fs::path images = dir / "images";
-    auto write_png = [&](const fs::path &p, const sampling::RgbImage &img) {
-        write_rgb8(p.string(), img.width, img.height, display->to_8bit(img));
-    };
-    write_png(images / "reference.png", ref.image);
-    std::vector<nlohmann::json> image_json;
-    for (size_t i = 0; i < r.samplers.size(); ++i) {
-        const std::string stem = r.samplers[i].slug;
-        const SamplerRun &f = *runs[i];
-        write_exr((images / (stem + ".exr")).string(), r.width, r.height,
-                  {ImageLayer{"", {"R", "G", "B"}, f.final_beauty.data, false},
-                   ImageLayer{"spp", {"Y"}, f.final_spp, true}});
-        write_png(images / (stem + ".png"), f.final_beauty);
-        write_pfm((images / (stem + ".spp.pfm")).string(), r.width, r.height, f.final_spp);
-        image_json.push_back({{"exr", "images/" + stem + ".exr"},
-                              {"png", "images/" + stem + ".png"},
-                              {"spp_pfm", "images/" + stem + ".spp.pfm"},
-                              {"adaptive", specs[i].name == "adaptive"}});
-    }
+    const std::vector<nlohmann::json> image_json =
+        write_converge_images(dir / "images", *display, ref, r, runs, specs);
     nlohmann::json j = result_json(r, opt, opt.scene, image_json);
     j["settings"]["max_depth"] = scene->settings.max_depth;
     j["settings"]["seed"] = scene->settings.seed;
@@ -578,23 +638,8 @@ ConvergeResult run_converge(const ConvergeOptions &opt_in) {
     std::fputs(format_headline(r).c_str(), stdout);
     std::fflush(stdout);
 
-    if (opt.report) {
-        std::string script = opt.report_script.empty() ? find_report_script() : opt.report_script;
-        const char *py = std::getenv("TESSERA_PYTHON");
-        int rc =
-            script.empty() ? 127 : run_program({py && *py ? py : "python3", script, dir.string()});
-        if (rc == 0) {
-            r.report_path = (dir / "report.html").string();
-            if (!opt.quiet)
-                std::fprintf(stderr, "tessera: wrote %s\n", r.report_path.c_str());
-        } else {
-            std::fprintf(stderr,
-                         "tessera: warning: report.html not written (%s); convergence.csv and "
-                         "convergence.json are complete (--no-report skips the report)\n",
-                         script.empty() ? "scripts/convergence_report.py not found"
-                                        : "the report script failed, see above");
-        }
-    }
+    if (opt.report)
+        write_converge_report(opt, dir, r);
     return r;
 }
 
