@@ -25,12 +25,14 @@
 #include <cmath>
 #include <cstring>
 
+// Without AVX (TESSERA_ISA=default, or a sanitizer build) the compiler warns that 32-byte
+// vector arguments change the ABI: here and in the 8-lane Sobol hashes of sampling/sequence.h
+// that this file instantiates (so before the includes: clang checks the pragma where the
+// template is written). The functions are internal to this file, so no ABI is at stake.
+#pragma GCC diagnostic ignored "-Wpsabi"
+
 #include "renderer/scene/geometry.h"
 #include "renderer/integrators/path_integrator.h"
-
-// Without AVX (TESSERA_ISA=default) GCC warns that 32-byte vector arguments change the ABI;
-// these functions are internal to this file, so no ABI is at stake.
-#pragma GCC diagnostic ignored "-Wpsabi"
 
 namespace tessera {
 
