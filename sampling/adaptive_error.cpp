@@ -6,31 +6,60 @@
 #include <cmath>
 #include <limits>
 
+#include "sampling/image_metrics.h"
+
 namespace tessera::sampling {
 
 namespace {
 constexpr float kInfF = std::numeric_limits<float>::infinity();
 constexpr double kInf = std::numeric_limits<double>::infinity();
-}  // namespace
 
-float pixel_error(const PixelStats &st, uint32_t min_samples) {
+// The second estimate A of the pixel and the weight k of I - A (see the header): the half buffer
+// as it is, or the prefix scaled to the half buffer's spread. False when the pixel has no
+// estimate.
+bool second_estimate(const PixelStats &st, uint32_t min_samples, const std::array<double, 3> *&a,
+                     double &k) {
     if (st.accepted < std::max<uint32_t>(min_samples, 2))
-        return kInfF;
-    // The second estimate A and the weight of |I - A|: the half buffer as it is, or the prefix
-    // scaled to the half buffer's spread (see the header).
-    const std::array<double, 3> *a = &st.half_mean;
-    double k = 1;
+        return false;
+    a = &st.half_mean;
+    k = 1;
     if (st.has_prefix) {
         // m < n, or I == A and the error would read 0 whatever the noise.
         if (st.prefix_accepted == 0 || st.prefix_accepted >= st.accepted)
-            return kInfF;
+            return false;
         const double m = st.prefix_accepted, n = st.accepted;
         k = std::sqrt(m / (n - m));
         a = &st.prefix_mean;
-    } else if (st.half_accepted == 0 || st.half_accepted >= st.accepted) {
-        // Both halves must be non-empty: with no even sample I == A and the error would read 0.
-        return kInfF;
+        return true;
     }
+    // Both halves must be non-empty: with no even sample I == A and the error would read 0.
+    return st.half_accepted != 0 && st.half_accepted < st.accepted;
+}
+
+}  // namespace
+
+const char *metric_name(ErrorMetric m) {
+    return m == ErrorMetric::RelMse ? "relmse" : "dammertz";
+}
+
+float pixel_rel_mse(const PixelStats &st, uint32_t min_samples) {
+    const std::array<double, 3> *a = nullptr;
+    double k = 1;
+    if (!second_estimate(st, min_samples, a, k))
+        return kInfF;
+    double rho = 0;
+    for (int c = 0; c < 3; ++c) {
+        const double d = k * (st.mean[c] - (*a)[c]);
+        rho += d * d / (st.mean[c] * st.mean[c] + kRelMseEpsilon);
+    }
+    return float(rho / 3);
+}
+
+float pixel_error(const PixelStats &st, uint32_t min_samples) {
+    const std::array<double, 3> *a = nullptr;
+    double k = 1;
+    if (!second_estimate(st, min_samples, a, k))
+        return kInfF;
     double num = 0, sum = 0, abs_i = 0, abs_a = 0;
     for (int c = 0; c < 3; ++c) {
         num += std::abs(st.mean[c] - (*a)[c]);
@@ -47,7 +76,8 @@ float pixel_error(const PixelStats &st, uint32_t min_samples) {
     return float(num / std::sqrt(denom2));
 }
 
-void compute_errors(const Film &film, PixelBounds region, uint32_t min_samples, ErrorImage &out) {
+void compute_errors(const Film &film, PixelBounds region, uint32_t min_samples, ErrorImage &out,
+                    ErrorMetric metric) {
     const int w = int(film.width()), h = int(film.height());
     if (out.width != w || out.height != h || out.error.size() != size_t(w) * size_t(h)) {
         out.width = w;
@@ -61,7 +91,9 @@ void compute_errors(const Film &film, PixelBounds region, uint32_t min_samples, 
     for (int y = region.y0; y < region.y1; ++y) {
         float *row = &out.error[size_t(y) * size_t(w)];
         for (int x = region.x0; x < region.x1; ++x)
-            row[x] = pixel_error(film.pixel_stats(uint32_t(x), uint32_t(y)), min_samples);
+            row[x] = metric == ErrorMetric::RelMse
+                         ? pixel_rel_mse(film.pixel_stats(uint32_t(x), uint32_t(y)), min_samples)
+                         : pixel_error(film.pixel_stats(uint32_t(x), uint32_t(y)), min_samples);
     }
 }
 

@@ -31,6 +31,19 @@
 // of examples/uneven-outdoor (256-4096 spp, against a 65536-spp reference) the half buffer
 // read 10-20x the true error and only about 1x on the caustics beside it, so it ranked the
 // regions wrongly; the prefix estimate read 0.5-1.03x on both.
+//
+// The relMSE estimate (AdaptiveOptions::metric = ErrorMetric::RelMse, the `adaptive` sampler's
+// default). D_c = k (I_c - A_c), with A and k as above, has E[D_c^2] = Var(I_c) (half buffer:
+// I - A = (S_even - S_odd) / n, variance sigma^2 / n; prefix: k^2 sigma^2 (1/m - 1/n) =
+// sigma^2 / n), so rho_p = (1/3) sum_c D_c^2 / (I_c^2 + 0.01) estimates the pixel's relMSE,
+// the same quantity `tessera converge` measures against a reference (sampling/image_metrics.h,
+// with I in place of the reference). One pixel's rho_p has about one degree of freedom per
+// channel; the trees use it summed over 8x8 tiles. For the allocation, a_p = rho_p n (the
+// relative variance of one sample) and m_p = rho_p / n = a_p / n^2, the relMSE one more sample
+// removes: an image relMSE E = (1/P) sum a_p / n_p costs the fewest samples when
+// n_p = lambda sqrt(a_p) (Lagrange), i.e. when every pixel has the same m_p = 1 / lambda^2 with
+// lambda = sum_p sqrt(a_p) / (P E). The scheduler therefore stops a region when its mean m_p is
+// below (P E / sum_p sqrt(a_p))^2 (scheduler/adaptive_scheduler.h, "Error metrics").
 #pragma once
 
 #include <cstdint>
@@ -57,12 +70,26 @@ namespace tessera::sampling {
 /// exactly as the formula does for ordinary pixels. Pure function, thread-safe.
 float pixel_error(const PixelStats &stats, uint32_t min_samples);
 
-/// Fills `out.error` with pixel_error over the pixels of `region` (clipped to the film).
+/// What an adaptive render's error target and per-pixel errors mean.
+enum class ErrorMetric {
+    Dammertz,  ///< pixel_error and the area-weighted region error e_b (Dammertz et al. 2010)
+    RelMse,    ///< pixel_rel_mse: the image relMSE the render is to reach (see the file comment)
+};
+
+/// "dammertz" or "relmse".
+const char *metric_name(ErrorMetric m);
+
+/// Estimated relMSE rho_p of the pixel's mean (see the file comment), >= 0; +inf exactly where
+/// pixel_error is +inf (no estimate). Pure function, thread-safe.
+float pixel_rel_mse(const PixelStats &stats, uint32_t min_samples);
+
+/// Fills `out.error` with pixel_error (or pixel_rel_mse, by `metric`) over the pixels of `region` (clipped to the film).
 /// `out` covers the whole film: if its size differs from the film's it is reallocated and every
 /// pixel set to +inf first (so allocate once and reuse). Pixels outside `region` are untouched.
 /// Thread-safe for disjoint regions once `out` has the film's size, as long as the film's
 /// pixels in `region` are not being written.
-void compute_errors(const Film &film, PixelBounds region, uint32_t min_samples, ErrorImage &out);
+void compute_errors(const Film &film, PixelBounds region, uint32_t min_samples, ErrorImage &out,
+                    ErrorMetric metric = ErrorMetric::Dammertz);
 
 /// Region error e_b of the float rectangle `region` (pixel units, clipped to the error image):
 /// e_b = (r / N) * sum_p c_p e_p, with c_p in [0, 1] the fraction of pixel p covered by the

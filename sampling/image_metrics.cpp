@@ -43,7 +43,7 @@ ErrorSums error_sums(const RgbImage &test, const RgbImage &ref) {
             double v = test.data[3 * i + c], r = ref.data[3 * i + c];
             double d2 = (v - r) * (v - r);
             s.sq[c] += d2;
-            s.rel[c] += d2 / (r * r + 0.01);
+            s.rel[c] += d2 / (r * r + kRelMseEpsilon);
             s.abs[c] += std::abs(v - r);
         }
     }
@@ -113,7 +113,7 @@ ChannelMetric rel_mse_robust(const RgbImage &test, const RgbImage &ref, double d
         double sum = 0;
         for (int c = 0; c < 3; ++c) {
             double v = test.data[3 * i + c], r = ref.data[3 * i + c];
-            rel[i][c] = (v - r) * (v - r) / (r * r + 0.01);
+            rel[i][c] = (v - r) * (v - r) / (r * r + kRelMseEpsilon);
             sum += rel[i][c];
         }
         key[i] = {std::isnan(sum) ? std::numeric_limits<double>::infinity() : sum, i};

@@ -61,6 +61,11 @@ struct ImageComparison {
     std::array<double, 3> mean_test{}, mean_ref{};
 };
 
+/// The 0.01 of relMSE's denominator (ref^2 + 0.01), shared with the adaptive sampler's per-pixel
+/// relMSE estimate (sampling/adaptive_error.h), so that the error the sampler targets is the
+/// error `tessera converge` and `tessera diff` report.
+inline constexpr double kRelMseEpsilon = 0.01;
+
 /// Mean squared error. Throws std::invalid_argument when the sizes differ or an image is
 /// malformed. Thread-safe (pure).
 ChannelMetric mse(const RgbImage &test, const RgbImage &ref);

@@ -30,6 +30,9 @@ struct ProgressiveSettings {
     /// that the easy regions stop early and the target then falls by refine_factor each time
     /// every region is complete.
     double refine_start_error = 0.01;
+    /// The same for the relMSE metric (the `adaptive` default): an image relMSE. Levels above
+    /// the film's own error cost one rebuild each, so starting loose costs almost nothing.
+    double relmse_refine_start = 1.0;
     /// adaptive:refine-factor: error target multiplier per refinement, in (0, 1).
     double refine_factor = 0.5;
     /// adaptive:refine-spp-ratio: refining, no pixel above this x the mean spp (0: no cap).

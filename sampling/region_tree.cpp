@@ -338,7 +338,9 @@ void RegionTree::build(int n, int depth) {
     const double sum = integral(b);
     // e_b = (r / N) * sum e_p with r = sqrt(A_b / A_image) and N = A_b, i.e.
     // sum / sqrt(A_b * A_image) (Dammertz et al. 2010, eq. 3).
-    const double e = a > 0 ? sum / std::sqrt(a * image_area_) : 0.0;
+    // r = 1 without area weighting (the plain mean).
+    const double r = params_.area_weighted ? std::sqrt(a / image_area_) : 1.0;
+    const double e = a <= 0 ? 0.0 : params_.area_weighted ? sum / std::sqrt(a * image_area_) : sum / a;
     node.error = has_unknown(b) ? kInf : e;  // unknown only in the margin: judged without it
     const double a_own = any_own ? area(own) : 0.0;
     // The own part's mean error at the whole region's scale r: a region straddling the seam
@@ -346,14 +348,15 @@ void RegionTree::build(int n, int depth) {
     // sampling here can improve (its own part's smaller area would lower e_b by itself).
     node.own_error = !any_own    ? 0.0
                      : a_own == a ? e
-                                  : integral(own) / a_own * std::sqrt(a / image_area_);
-    if (!any_own || node.own_error < params_.target) {
+                                  : integral(own) / a_own * r;
+    const int axis = extent(b, 0) >= extent(b, 1) ? 0 : 1;
+    const bool can_split = depth < params_.max_depth &&
+                           extent(b, axis) >= 2 * params_.min_extent && sum > 0;
+    if (!any_own || (node.own_error < params_.target && (params_.area_weighted || !can_split))) {
         node.complete = true;
         return;
     }
-    const int axis = extent(b, 0) >= extent(b, 1) ? 0 : 1;
-    if (!(e < params_.split_factor * params_.target) || depth >= params_.max_depth ||
-        !(extent(b, axis) >= 2 * params_.min_extent) || !(sum > 0)) {
+    if (!(e < params_.split_factor * params_.target) || !can_split) {
         nodes_[size_t(n)].complete = false;
         return;
     }

@@ -11,6 +11,9 @@
 //    estimate is reliable enough to localise the error; Dammertz uses 256), it splits along its
 //    longer axis at the floating-point position that divides its error equally, and both halves
 //    are built recursively; else it stays one open leaf.
+//  - with RegionTreeParams::area_weighted = false (the relMSE metric) the region error is the
+//    plain mean of e_p over the region and completion is decided leaf by leaf down to
+//    min_extent (see RegionTreeParams);
 //  - the tree's root covers the quadrant grown by one tile (clamped to the image), so error at
 //    the seams is seen from both sides when regions split; completion (e_b < target, and the
 //    unknown check) is judged on the pixels inside the quadrant only (their mean error, at the
@@ -78,6 +81,14 @@ struct RegionTreeParams {
     /// Pixels; a split never makes a child narrower than this along the split axis, so a
     /// region splits only when its longer extent is >= 2 * min_extent.
     double min_extent = kProgressiveDefaults.min_extent;
+    /// true: the region error is Dammertz's e_b (the mean pixel error times r =
+    /// sqrt(A_b / A_image)), and a region below the target is a complete leaf. false: the
+    /// region error is the mean pixel error over the region (r = 1; for the relMSE metric,
+    /// whose per-pixel threshold is the same everywhere, sampling/adaptive_error.h), and a
+    /// region below the target still splits while it is wide enough, so that a small region of
+    /// high error inside a large calm one is not averaged away; it is complete when all its
+    /// leaves are.
+    bool area_weighted = true;
 };
 
 /// A binary tree over one quadrant. Not thread-safe: callers hold the quadrant's writer lock for
@@ -147,6 +158,8 @@ class RegionTree {
     const std::vector<Node> &nodes() const { return nodes_; }
     const PixelBounds &quadrant() const { return quadrant_; }
     const PixelBounds &grown() const { return grown_; }
+    /// The parameters of the last rebuild (the default ones before the first).
+    const RegionTreeParams &params() const { return params_; }
     /// Error of the root region (the quadrant's error estimate).
     double root_error() const { return nodes_.empty() ? 0.0 : nodes_[0].error; }
     /// Number of leaves, and of those the incomplete ones (0, 0 before the first rebuild).

@@ -120,9 +120,11 @@ class AdaptiveProgress {
                 frac = std::max(frac, std::max(f, 0.0));
         }
         if (st.error_target > 0 && std::isfinite(st.error) && st.error > 0) {
-            // Error falls as 1/sqrt(spp): (e / target)^2 times the samples so far are needed
-            // (pessimistic: completed regions stop costing).
-            double ratio = st.error / st.error_target, need = ratio * ratio;
+            // Dammertz's error falls as 1/sqrt(spp), relMSE as 1/spp: (e / target)^2 or
+            // e / target times the samples so far are needed (pessimistic: completed regions
+            // stop costing).
+            double ratio = st.error / st.error_target;
+            double need = options_.metric == sampling::ErrorMetric::RelMse ? ratio : ratio * ratio;
             take(need > 1 ? st.elapsed_s * (need - 1) : 0.0, 1.0 / std::max(need, 1.0));
         }
         st.eta_s = eta;
@@ -187,6 +189,7 @@ struct AdaptiveScheduler::Quadrant {
     std::atomic<uint32_t> rebuild_requests{0};  // see finish_tile_nonbarrier
     // Refining: samples its tiles took since the last pass end (a pass with none is "idle").
     std::atomic<uint64_t> pass_samples{0};
+    std::atomic<double> last_tree_target{0};  // RegionTreeParams::target of the last rebuild
 };
 
 struct AdaptiveScheduler::RenderContext {
@@ -424,7 +427,10 @@ AdaptiveScheduler::AdaptiveScheduler(const SampleSource &source, sampling::Film 
     : source_(source), film_(film), options_(std::move(options)) {
     if (film.width() != source.width() || film.height() != source.height())
         throw std::invalid_argument("AdaptiveScheduler: film and sample source sizes differ");
-    adaptive_ = options_.adaptive && options_.error_target > 0;
+    relmse_ = options_.metric == sampling::ErrorMetric::RelMse;
+    adaptive_ = options_.adaptive &&
+                (options_.error_target > 0 ||
+                 (relmse_ && options_.spp_budget > 0 && !options_.refine_target));
     if (adaptive_ && options_.refine_target &&
         !(options_.refine_factor > 0 && options_.refine_factor < 1))
         throw std::invalid_argument("AdaptiveScheduler: refine_factor must lie in (0, 1)");
@@ -471,6 +477,12 @@ AdaptiveScheduler::AdaptiveScheduler(const SampleSource &source, sampling::Film 
     error_snapshot_ = std::make_unique<std::atomic<float>[]>(size_t(w) * h);
     tile_error_sum_ = std::make_unique<std::atomic<double>[]>(tiles_.size());
     tile_unknown_ = std::make_unique<std::atomic<uint32_t>[]>(tiles_.size());
+    if (relmse_) {
+        a_snapshot_ = std::make_unique<std::atomic<float>[]>(size_t(w) * h);
+        tile_a_sum_ = std::make_unique<std::atomic<double>[]>(tiles_.size());
+        tile_sqrt_a_sum_ = std::make_unique<std::atomic<double>[]>(tiles_.size());
+        tile_rho_sum_ = std::make_unique<std::atomic<double>[]>(tiles_.size());
+    }
     tiles_x_ = tiles_x;
     tile_at_.assign(size_t(tiles_x) * tiles_y, 0);
     for (size_t t = 0; t < tiles_.size(); ++t)
@@ -513,15 +525,34 @@ std::string AdaptiveScheduler::describe() const {
 // Rendering.
 // ---------------------------------------------------------------------------------------------
 
+void AdaptiveScheduler::snapshot_pixel_error(uint32_t x, uint32_t y) {
+    const size_t i = size_t(y) * film_.width() + x;
+    const sampling::PixelStats st = film_.pixel_stats(x, y);
+    if (!relmse_) {
+        error_snapshot_[i].store(sampling::pixel_error(st, options_.min_samples_for_error),
+                                 std::memory_order_relaxed);
+        return;
+    }
+    // m_p = rho / n and a_p = rho * n (see "Error metrics" in the header).
+    const float rho = sampling::pixel_rel_mse(st, options_.min_samples_for_error);
+    const double n = std::max(1u, st.accepted);
+    error_snapshot_[i].store(rho < kInfF ? float(double(rho) / n) : kInfF,
+                             std::memory_order_relaxed);
+    a_snapshot_[i].store(rho < kInfF ? float(double(rho) * n) : 0.f, std::memory_order_relaxed);
+}
+
 void AdaptiveScheduler::init_error_snapshot() {
     const uint32_t w = film_.width(), h = film_.height();
     const bool empty = film_.total_samples() == 0;
     for (uint32_t y = 0; y < h; ++y)
         for (uint32_t x = 0; x < w; ++x) {
-            float e = empty ? kInfF
-                            : sampling::pixel_error(film_.pixel_stats(x, y),
-                                                    options_.min_samples_for_error);
-            error_snapshot_[size_t(y) * w + x].store(e, std::memory_order_relaxed);
+            if (empty) {
+                error_snapshot_[size_t(y) * w + x].store(kInfF, std::memory_order_relaxed);
+                if (relmse_)
+                    a_snapshot_[size_t(y) * w + x].store(0.f, std::memory_order_relaxed);
+            } else {
+                snapshot_pixel_error(x, y);
+            }
         }
     for (size_t t = 0; t < tiles_.size(); ++t) publish_tile_error(t);
 }
@@ -529,18 +560,64 @@ void AdaptiveScheduler::init_error_snapshot() {
 void AdaptiveScheduler::publish_tile_error(size_t t) {
     const Tile &tile = tiles_[t];
     const uint32_t w = film_.width();
-    double sum = 0;
+    double sum = 0, a_sum = 0, sqrt_a_sum = 0, rho_sum = 0;
     uint32_t unknown = 0;
     for (uint32_t y = tile.y0; y < tile.y1; ++y)
         for (uint32_t x = tile.x0; x < tile.x1; ++x) {
-            const float e = error_snapshot_[size_t(y) * w + x].load(std::memory_order_relaxed);
-            if (e < kInfF)
-                sum += double(std::max(e, 0.f));
-            else
+            const size_t i = size_t(y) * w + x;
+            const float e = error_snapshot_[i].load(std::memory_order_relaxed);
+            if (!(e < kInfF)) {
                 ++unknown;  // +inf or NaN: no estimate
+                continue;
+            }
+            sum += double(std::max(e, 0.f));
+            if (relmse_) {
+                const double a = std::max(0.0, double(a_snapshot_[i].load(std::memory_order_relaxed)));
+                a_sum += a;
+                sqrt_a_sum += std::sqrt(a);
+                rho_sum += std::sqrt(a * double(std::max(e, 0.f)));  // rho = sqrt(m a)
+            }
         }
     tile_error_sum_[t].store(sum, std::memory_order_relaxed);
     tile_unknown_[t].store(unknown, std::memory_order_relaxed);
+    if (relmse_) {
+        tile_a_sum_[t].store(a_sum, std::memory_order_relaxed);
+        tile_sqrt_a_sum_[t].store(sqrt_a_sum, std::memory_order_relaxed);
+        tile_rho_sum_[t].store(rho_sum, std::memory_order_relaxed);
+    }
+}
+
+double AdaptiveScheduler::tree_target(uint32_t level) const {
+    const double e_target =
+        refine_ ? target_at(level) : options_.error_target;
+    if (!relmse_)
+        return e_target;
+    // In tile order, so that the deterministic mode sums identically.
+    double a_sum = 0, sqrt_a_sum = 0;
+    for (size_t t = 0; t < tiles_.size(); ++t) {
+        a_sum += tile_a_sum_[t].load(std::memory_order_relaxed);
+        sqrt_a_sum += tile_sqrt_a_sum_[t].load(std::memory_order_relaxed);
+    }
+    const double pixels = std::max(1.0, double(film_.width()) * double(film_.height()));
+    // spp_budget: the relMSE of that many uniform samples, as the film estimates it now.
+    const double e = !refine_ && options_.error_target <= 0 && options_.spp_budget > 0
+                         ? a_sum / (pixels * double(options_.spp_budget))
+                         : e_target;
+    if (!(sqrt_a_sum > 0))
+        return std::numeric_limits<double>::infinity();  // no noise anywhere: nothing to do
+    const double root = pixels * e / sqrt_a_sum;
+    return root * root;
+}
+
+double AdaptiveScheduler::published_image_error() const {
+    double sum = 0;
+    for (size_t t = 0; t < tiles_.size(); ++t) {
+        if (tile_unknown_[t].load(std::memory_order_relaxed) != 0)
+            return std::numeric_limits<double>::infinity();
+        sum += relmse_ ? tile_rho_sum_[t].load(std::memory_order_relaxed)
+                       : tile_error_sum_[t].load(std::memory_order_relaxed);
+    }
+    return sum / std::max(1.0, double(film_.width()) * double(film_.height()));
 }
 
 namespace {
@@ -609,8 +686,10 @@ bool AdaptiveScheduler::select_active_pixels(const Tile &tile, Quadrant &quad, u
     // Copy what the tile needs out of the tree under the stripe's shared lock.
     const uint32_t s = quad.locks.index(tile.tx, tile.ty);
     ws.reader_wait_s += quad.locks.lock_shared(s);
-    quad.live().active_rects(
+    const sampling::RegionTree &tree = quad.live();
+    tree.active_rects(
         sampling::PixelBounds{int(tile.x0), int(tile.y0), int(tile.x1), int(tile.y1)}, ws.rects);
+    const double pixel_target = tree.params().target;
     quad.locks.unlock_shared(s);
     // Refining: pixels below the level's floor count as active wherever they are (the tile's
     // pixels belong to this thread now, so their counts can be read).
@@ -629,11 +708,51 @@ bool AdaptiveScheduler::select_active_pixels(const Tile &tile, Quadrant &quad, u
             for (int x = x0; x < x1; ++x)
                 ws.active[size_t(y - int(tile.y0)) * tw + size_t(x - int(tile.x0))] = 1;
     }
+    if (relmse_ && !ws.rects.empty())
+        select_pixels_by_error(tile, pixel_target, ws);
     if (below_floor)
         for (uint32_t i = 0; i < n; ++i)
             if (film_.sample_count(tile.x0 + i % tw, tile.y0 + i / tw) < floor)
                 ws.active[i] = 1;
     return true;
+}
+
+void AdaptiveScheduler::select_pixels_by_error(const Tile &tile, double target,
+                                               WorkerState &ws) const {
+    // Inside an open region, a pixel is sampled when the mean m_p of its 3x3 neighbourhood
+    // (clipped to the tile) is at least the tree's threshold: error concentrated in features
+    // narrower than a tile (a highlight, a silhouette) gets the samples, not the whole tile.
+    // The 3x3 mean steadies the estimate of single pixels (about one degree of freedom per
+    // channel each). Only the tile's own pixels are read: their snapshot changes only in this
+    // tile's visits, while a neighbouring tile's may or may not have been rendered in this pass
+    // yet, which would make the deterministic mode depend on timing. If no pixel qualifies
+    // (the region's mean is above the threshold only through pixels outside this tile) the
+    // open pixels are kept, so that an open region always samples.
+    const uint32_t tw = tile.width(), n = tile.pixel_count();
+    const uint32_t w = film_.width();
+    std::array<uint8_t, kTilePixels> keep{};
+    bool any = false;
+    for (uint32_t i = 0; i < n; ++i) {
+        if (!ws.active[i])
+            continue;
+        const uint32_t px = tile.x0 + i % tw, py = tile.y0 + i / tw;
+        double sum = 0;
+        int count = 0;
+        bool unknown = false;
+        for (uint32_t y = py > tile.y0 ? py - 1 : py; y <= std::min(tile.y1 - 1, py + 1); ++y)
+            for (uint32_t x = px > tile.x0 ? px - 1 : px; x <= std::min(tile.x1 - 1, px + 1); ++x) {
+                const float e = error_snapshot_[size_t(y) * w + x].load(std::memory_order_relaxed);
+                unknown = unknown || !(e < kInfF);
+                sum += double(std::max(e, 0.f));
+                ++count;
+            }
+        keep[i] = unknown || sum >= target * count;
+        any = any || keep[i];
+    }
+    if (any)
+        for (uint32_t i = 0; i < n; ++i) {
+            ws.active[i] = keep[i];
+        }
 }
 
 bool AdaptiveScheduler::sample_tile(const Tile &tile, uint32_t target, uint32_t pixel_cap,
@@ -678,10 +797,7 @@ bool AdaptiveScheduler::snapshot_tile_errors(const Tile &tile, const WorkerState
     for (uint32_t i = 0; i < n; ++i) {
         if (ws.after[i] == ws.before[i])
             continue;
-        const uint32_t px = tile.x0 + i % tw, py = tile.y0 + i / tw;
-        error_snapshot_[size_t(py) * film_.width() + px].store(
-            sampling::pixel_error(film_.pixel_stats(px, py), options_.min_samples_for_error),
-            std::memory_order_relaxed);
+        snapshot_pixel_error(tile.x0 + i % tw, tile.y0 + i / tw);
         any_new_error = true;
     }
     return any_new_error;
@@ -798,9 +914,11 @@ bool AdaptiveScheduler::rebuild_quadrant(int q, RenderContext &ctx, WorkerState 
     if (refine_)
         ctx.raise_guards(options_);
     sampling::RegionTreeParams params;
-    params.target = refine_ ? target_at(level) : options_.error_target;
+    params.target = tree_target(level);
     params.split_factor = options_.split_factor;
     params.min_extent = options_.min_extent;
+    params.area_weighted = !relmse_;
+    quad.last_tree_target.store(params.target, std::memory_order_relaxed);
     // Build into the idle copy, publish it, then take each stripe's writer lock in turn: once
     // past all of them, no reader can still be reading the old copy, which becomes the idle one
     // of the next rebuild. Readers wait at most for one stripe's hand-over, never for a whole
@@ -855,14 +973,18 @@ bool AdaptiveScheduler::rebuild_quadrant(int q, RenderContext &ctx, WorkerState 
     quad.rebuild_ms_max = std::max(quad.rebuild_ms_max, s * 1e3);
 
     if (ctx.progress) {
-        double total = 0;
-        bool known = true;
-        for (const auto &qq : quadrants_) {
-            total += qq->error_sum.load(std::memory_order_relaxed);
-            known = known && qq->unknown_pixels.load(std::memory_order_relaxed) == 0;
+        if (relmse_) {
+            ctx.progress->set_error(published_image_error());
+        } else {
+            double total = 0;
+            bool known = true;
+            for (const auto &qq : quadrants_) {
+                total += qq->error_sum.load(std::memory_order_relaxed);
+                known = known && qq->unknown_pixels.load(std::memory_order_relaxed) == 0;
+            }
+            ctx.progress->set_error(known ? total / (double(w) * double(h))
+                                          : std::numeric_limits<double>::infinity());
         }
-        ctx.progress->set_error(known ? total / (double(w) * double(h))
-                                      : std::numeric_limits<double>::infinity());
     }
     return refined;
 }
@@ -1277,7 +1399,16 @@ AdaptiveStats AdaptiveScheduler::render(const std::atomic<bool> *cancel) {
 
     collect_stats(ctx, stats);
     stats.nan_samples = film_.nan_count() - nan_before;
-    stats.error_estimate = sampling::image_error(film_, options_.min_samples_for_error);
+    if (relmse_) {
+        // The film as it is now (the snapshot may lag a cancelled tile's last samples).
+        init_error_snapshot();
+        stats.error_estimate = published_image_error();
+        for (const auto &q : quadrants_)
+            stats.tree_target = std::max(stats.tree_target,
+                                         q->last_tree_target.load(std::memory_order_relaxed));
+    } else {
+        stats.error_estimate = sampling::image_error(film_, options_.min_samples_for_error);
+    }
     fill_spp_histogram(stats);
     stats.wall_s = seconds_since(ctx.start);
     stats.lock_wait_fraction =

@@ -76,6 +76,22 @@
 // counts as complete), and pixels below mean / refine_floor_ratio (updated at every rebuild)
 // are sampled even inside completed regions (a few dozen samples' Dammertz estimate can call a
 // region done too early).
+//
+// Error metrics (AdaptiveOptions::metric). Dammertz: the trees compare Dammertz's area-weighted
+// region error e_b with error_target (MoonRay's rule; sampling/region_tree.h), a perceptual
+// stopping rule under which a small region may keep a larger per-pixel error. RelMse (the
+// `adaptive` sampler's default in `tessera render`): error_target is the image relMSE to reach,
+// the quantity `tessera converge` measures. Each pixel publishes m_p = rho_p / n and
+// a_p = rho_p n (rho_p its estimated relMSE, sampling/adaptive_error.h), each tile the sums of
+// m_p, a_p, sqrt(a_p) and rho_p. A rebuild turns the image target E into the per-pixel
+// threshold t = (P E / sum_p sqrt(a_p))^2 on m_p, the relMSE one more sample removes, and the
+// trees compare the plain mean of m_p over a region with t (RegionTreeParams::area_weighted =
+// false). Stopping every region at the same m_p is the allocation n_p ~ sqrt(a_p) that reaches
+// E with the fewest samples (Lagrange; the oracle of the benchmark in the README). With
+// spp_budget N instead of a target, E is the relMSE of N uniform samples, (1 / P) sum a_p / N,
+// re-estimated at every rebuild. Refining, the level lowers E itself by refine_factor. The sums
+// are read from the published tile atomics at every rebuild (O(tiles); in the deterministic
+// mode they are fixed between passes, so the result stays bit-identical).
 #pragma once
 
 #include <array>
@@ -87,6 +103,7 @@
 #include <string>
 #include <vector>
 
+#include "sampling/adaptive_error.h"
 #include "sampling/film.h"
 #include "sampling/progressive_settings.h"
 #include "sampling/region_tree.h"
@@ -117,9 +134,18 @@ struct AdaptiveOptions {
     uint32_t min_spp = sampling::kProgressiveDefaults.min_spp;
     uint32_t max_spp = 1024;  ///< per-pixel cap (0: unlimited; needs time_s or error_target)
     double time_s = 0;        ///< wall-clock budget in seconds (0: none)
-    /// Region error (Dammertz e_b) below which a region is complete; 0: no error stopping
-    /// (uniform sampling to max_spp). With refine_target: the starting target.
+    /// What error_target means (see the file comment, "Error metrics"): Dammertz's region
+    /// error e_b, or (RelMse) the image relMSE to reach.
+    sampling::ErrorMetric metric = sampling::ErrorMetric::Dammertz;
+    /// Region error (Dammertz e_b) below which a region is complete, or with the RelMse metric
+    /// the image relMSE to reach; 0: no error stopping (uniform sampling to max_spp, unless
+    /// spp_budget is set). With refine_target: the starting target.
     double error_target = 0;
+    /// RelMse metric, no error_target and no refinement: reach the relMSE that spp_budget
+    /// uniform samples per pixel would give (estimated from the film at every rebuild,
+    /// (1 / P) sum_p a_p / spp_budget), with the fewest samples (see "Error metrics"); pixels
+    /// still stop at max_spp. 0: off.
+    uint32_t spp_budget = 0;
     /// Refinement (see the file comment): when every region is complete before the budget is
     /// spent, lower the target by refine_factor and go on instead of stopping. Needs a budget
     /// that ends the render (time_s > 0 or max_spp > 0); ignored otherwise and without error
@@ -223,9 +249,13 @@ struct AdaptiveStats {
     double tree_rebuild_ms_mean = 0;  ///< mean rebuild time of one quadrant, milliseconds
     /// Mean rebuild time per quadrant (0..3), milliseconds (0 for an empty quadrant).
     std::array<double, 4> quadrant_rebuild_ms_mean{};
-    /// Image error at the end (sampling::image_error, the mean Dammertz pixel error); +inf when
-    /// some pixel has no estimate.
+    /// Image error at the end: sampling::image_error (the mean Dammertz pixel error), or with
+    /// the RelMse metric the estimated image relMSE (the mean of sampling::pixel_rel_mse);
+    /// +inf when some pixel has no estimate.
     double error_estimate = 0;
+    /// RelMse metric: the per-pixel threshold on m_p the trees used last (see "Error
+    /// metrics"); 0 otherwise.
+    double tree_target = 0;
     /// Final samples per pixel: [0] pixels with 0 samples, [k >= 1] pixels with spp in
     /// [2^(k-1), 2^k).
     std::vector<uint64_t> spp_histogram;
@@ -333,6 +363,9 @@ class AdaptiveScheduler {
     /// Marks the tile's active pixels in ws.active; false when the tile is skipped whole.
     bool select_active_pixels(const Tile &tile, Quadrant &quad, uint32_t pass,
                               RenderContext &ctx, WorkerState &ws);
+    /// RelMse metric: within the tile's open regions, keeps the pixels whose 3x3 mean m_p
+    /// reaches `target` (all of them if none does).
+    void select_pixels_by_error(const Tile &tile, double target, WorkerState &ws) const;
     /// Takes the active pixels' samples of the pass; true when some pixel was active.
     bool sample_tile(const Tile &tile, uint32_t target, uint32_t pixel_cap, WorkerState &ws,
                      TileTally &tally);
@@ -373,6 +406,20 @@ class AdaptiveScheduler {
     std::vector<uint32_t> tile_at_;  // tile grid (tx, ty) -> Morton index, row-major
     uint32_t tiles_x_ = 0;
     void publish_tile_error(size_t t);
+    /// Stores pixel (x, y)'s error in the snapshot (and a_p, RelMse); the caller owns the pixel.
+    void snapshot_pixel_error(uint32_t x, uint32_t y);
+    /// The tree target of a rebuild at refinement `level`: error_target / target_at(level), or
+    /// with the RelMse metric the threshold on m_p that reaches that image relMSE, from the
+    /// published tile sums (see "Error metrics").
+    double tree_target(uint32_t level) const;
+    /// Estimated image relMSE (RelMse metric) or mean Dammertz error from the tile sums; +inf
+    /// while some pixel has no estimate.
+    double published_image_error() const;
+    // RelMse metric: per pixel a_p = rho_p n (the snapshot holds m_p = rho_p / n), per tile the
+    // sums of a_p, sqrt(a_p) and rho_p over its pixels with an estimate.
+    std::unique_ptr<std::atomic<float>[]> a_snapshot_;
+    std::unique_ptr<std::atomic<double>[]> tile_a_sum_, tile_sqrt_a_sum_, tile_rho_sum_;
+    bool relmse_ = false;
     // Per tile: passes completed (absolute pass index + 1), for the tile-order wait.
     std::unique_ptr<std::atomic<uint32_t>[]> tile_done_;
 };

@@ -32,6 +32,7 @@ void accumulate(AdaptiveStats &total, const AdaptiveStats &s) {
     total.tree_rebuild_ms_mean = total.rebuilds ? ms_sum / total.rebuilds : 0.0;
     total.tree_rebuild_ms_max = std::max(total.tree_rebuild_ms_max, s.tree_rebuild_ms_max);
     total.error_estimate = s.error_estimate;
+    total.tree_target = s.tree_target;
     total.spp_histogram = s.spp_histogram;
     total.render_s += s.render_s;
     total.rebuild_s += s.rebuild_s;

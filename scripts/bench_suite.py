@@ -10,10 +10,11 @@ snapshots, errors against a cached high-sample reference) into OUT/<scene>/, the
 OUT/report.html (scripts/convergence_report.py: summary table, then per scene the headline table,
 error-versus-time plots with fitted slopes, equal-time crops and sample-count heat maps),
 OUT/suite.csv (every row of every scene, with a `scene` column) and OUT/summary.txt (the headline
-tables as tessera printed them). Without --quick (and unless --no-realtime) it then runs
-scripts/bench_realtime.py at 256x256 (every real-time plugin and fixed 1/4/8/9/16 against a
-stratified ground truth) into OUT/realtime/, writes OUT/suite-realtime.csv and appends that table
-to the report.
+tables as tessera printed them, and per scene the final snapshot's relMSE and robust relMSE of
+every sampler with their ratios to the first). Without --quick (and unless --no-realtime) it
+then runs scripts/bench_realtime.py at 256x256 (every real-time plugin and fixed 1/4/8/9/16
+against a stratified ground truth) into OUT/realtime/, writes OUT/suite-realtime.csv and appends
+that table to the report.
 
 Budget on 2 cores. Default: 10 s per sampler at about 13k pixels, references of 3072 spp; about
 10 minutes when the reference cache is cold (the references are most of it), 2-3 minutes when
@@ -22,6 +23,13 @@ about a minute on a cold cache; it checks (as --check does) that every report wa
 sane: all errors finite, the error of each sampler falling with time (MAE of the last snapshot
 below the first complete one, negative MAE slope; convergence_report.sanity_problems), and
 report.html present with its images. CI runs it (ctest test report_suite_quick, label `report`).
+
+Errors are reported as relMSE and, beside it, the robust relMSE ("relMSE-0.1%": relMSE with the
+0.1% of pixels of largest relative error left out, sampling/image_metrics.h), which is also
+tessera converge's default headline metric: at equal time one firefly more or less decides the
+plain relMSE of a render, the robust one follows the bulk of the pixels. In suite.csv its
+columns (relmse_robust_r, _g, _b, relmse_robust) follow the relmse ones; results of a tessera
+too old to write it simply lack them.
 
 The reference of each scene is cached (tessera converge --cache-dir; default OUT/../converge-cache
 relative to the output folder, i.e. shared between runs into the same parent folder).
@@ -123,18 +131,68 @@ def run_converge(tessera, scene_path, out_dir, res, ref_spp, time_s, threads, ca
     return r.stdout, time.monotonic() - t0
 
 
+ROBUST_COLUMNS = ["relmse_robust_r", "relmse_robust_g", "relmse_robust_b", "relmse_robust"]
+
+
+def suite_columns(columns):
+    """convergence.csv's columns in suite.csv's order: the robust relMSE right after relmse."""
+    rest = [c for c in columns if c not in ROBUST_COLUMNS]
+    robust = [c for c in ROBUST_COLUMNS if c in columns]
+    if robust and "relmse" in rest:
+        at = rest.index("relmse") + 1
+        return rest[:at] + robust + rest[at:]
+    return rest + robust
+
+
 def write_suite_csv(out_dir, names):
     path = os.path.join(out_dir, "suite.csv")
-    writer = None
+    rows, columns = [], []
+    for name in names:
+        with open(os.path.join(out_dir, name, "convergence.csv"), newline="") as src:
+            reader = csv.DictReader(src)
+            columns += [c for c in reader.fieldnames if c not in columns]
+            rows += [{"scene": name, "kind": "progressive", **row} for row in reader]
     with open(path, "w", newline="") as f:
-        for name in names:
-            with open(os.path.join(out_dir, name, "convergence.csv"), newline="") as src:
-                for row in csv.DictReader(src):
-                    if writer is None:
-                        writer = csv.DictWriter(f, fieldnames=["scene", "kind"] + list(row))
-                        writer.writeheader()
-                    writer.writerow({"scene": name, "kind": "progressive", **row})
+        writer = csv.DictWriter(f, fieldnames=["scene", "kind"] + suite_columns(columns),
+                                restval="")
+        writer.writeheader()
+        writer.writerows(rows)
     return path
+
+
+def final_errors_text(run_dir):
+    """The final snapshot's relMSE and robust relMSE per sampler, and their ratios to the first
+    sampler's, as a text table (for summary.txt and the console)."""
+    data = convergence_report.load_run(run_dir)
+    robust = convergence_report.has_robust(data)
+    finals = []
+    for s in data["samplers"]:
+        rows = convergence_report.sampler_rows(data, s["index"])
+        if rows:
+            finals.append((s["spec"], rows[-1]))
+    if not finals:
+        return "final snapshot: no rows\n"
+    width = max(8, max(len(spec) for spec, _ in finals))
+    rl = convergence_report.ROBUST[1]
+    head = f"{'sampler':{width}s} {'time s':>7s} {'mean spp':>9s} {'relMSE':>10s} {'ratio':>7s}"
+    if robust:
+        head += f" {rl:>12s} {'ratio':>7s}"
+    lines = [f"\nfinal snapshot (ratios to {finals[0][0]})", head]
+
+    def ratio(v, base):
+        return f"{v / base:7.3f}" if v is not None and base else f"{'-':>7s}"
+
+    base = finals[0][1]
+    for spec, r in finals:
+        rel = r["relmse"]["total"]
+        line = (f"{spec:{width}s} {r['time_s']:7.2f} {r['mean_spp']:9.1f} {rel:10.4g} "
+                f"{ratio(rel, base['relmse']['total'])}")
+        if robust:
+            rob = r[convergence_report.ROBUST[0]]["total"]
+            line += (f" {rob:12.4g} "
+                     f"{ratio(rob, base[convergence_report.ROBUST[0]]['total'])}")
+        lines.append(line)
+    return "\n".join(lines) + "\n"
 
 
 def report_problems(out_dir, names):
@@ -197,7 +255,8 @@ def main():
         stdout, secs = run_converge(a.tessera, scene_path, run_dir, res, ref_spp, time_s,
                                     a.threads, cache_dir, a.quick)
         names.append(name)
-        block = f"== {name} ({res}, {secs:.0f} s with the reference)\n{stdout}"
+        block = (f"== {name} ({res}, {secs:.0f} s with the reference)\n{stdout}"
+                 f"{final_errors_text(run_dir)}")
         summary.append(block)
         print(block, flush=True)
 

@@ -6,11 +6,19 @@
 
 Each DIR is a `tessera converge -o DIR` folder (convergence.json, convergence.csv, images/).
 The report shows, per run: the headline table (time to reach error E per sampler, from the
-JSON), log-log plots of MSE, relMSE and MAE against render time with one line per sampler and
-its fitted slope (Monte Carlo: about -1 for MSE and relMSE, -1/2 for MAE), the reference's
-estimated noise floor, the equal-time images of every sampler beside the reference with two
-enlarged crops, and the samples-per-pixel heat maps of the adaptive runs. Several DIRs make one
-page with a summary table first (scripts/bench_suite.py uses that).
+JSON), log-log plots of MSE, relMSE, robust relMSE and MAE against render time with one line per
+sampler and its fitted slope (Monte Carlo: about -1 for MSE and relMSE, -1/2 for MAE), the
+reference's estimated noise floor, the equal-time images of every sampler beside the reference
+with two enlarged crops, the samples-per-pixel heat maps of the adaptive runs, and the final
+snapshot's errors. Several DIRs make one page with a summary table first (scripts/bench_suite.py
+uses that).
+
+The robust relMSE ("relMSE-0.1%", `relmse_robust` in convergence.json) is relMSE with the 0.1%
+of pixels of largest per-pixel relative error left out (sampling/image_metrics.h); it is shown
+beside the plain relMSE wherever that is, because on scenes with rare bright paths the plain
+relMSE of one render is decided by a few fireflies. It is the default headline metric of
+`tessera converge`. Runs written before it existed (no `relmse_robust` in their rows) get the
+report without it.
 
 Needs matplotlib and numpy (Debian: python3-matplotlib, installed by scripts/setup.sh). When the
 `python3` on PATH lacks them (a pyenv or venv interpreter), the script re-runs itself with the
@@ -25,6 +33,11 @@ import os
 import sys
 
 METRICS = [("mse", "MSE"), ("relmse", "relMSE"), ("mae", "MAE")]
+# The robust relMSE (convergence.json key, label); runs of older tessera versions lack it.
+ROBUST = ("relmse_robust", "relMSE-0.1%")
+# Labels of the headline metric names (convergence.json "headline": {"metric": ...}).
+HEADLINE_LABELS = {"mse": "MSE", "relmse": "relMSE", "relmse-robust": ROBUST[1],
+                   "relmse_robust": ROBUST[1], "rmse": "RMSE", "mae": "MAE"}
 EXIT_NO_MATPLOTLIB = 3
 
 
@@ -70,12 +83,40 @@ def usable(row):
     return row["coverage"] >= 1.0
 
 
+def has_robust(data):
+    """Whether every row of the run has the robust relMSE (not so for runs of older versions)."""
+    return bool(data["rows"]) and all(ROBUST[0] in r for r in data["rows"])
+
+
+def report_metrics(data):
+    """The (key, label) pairs the run's plots show: METRICS, with the robust relMSE after the
+    relMSE when the run has it."""
+    out = []
+    for m in METRICS:
+        out.append(m)
+        if m[0] == "relmse" and has_robust(data):
+            out.append(ROBUST)
+    return out
+
+
+def headline_label(data):
+    metric = data["headline"]["metric"]
+    return HEADLINE_LABELS.get(metric, metric)
+
+
+def fit_of(sampler, key):
+    """The sampler's fit of metric key ({"slope": None, ...} when the JSON has none)."""
+    return sampler["fit"].get(key) or {"slope": None, "intercept": None, "points": 0}
+
+
 def sanity_problems(data):
     """What is wrong with a run's numbers, as readable strings (empty: sane). Checks that every
     sampler has rows, that every error is finite, and that its error falls with time: MAE at the
     last usable snapshot below the first, and a negative fitted MAE slope. (MAE, not MSE: at the
     few samples of a quick run one firefly can lift the MSE of a later snapshot above an earlier
-    one, while MAE follows the bulk of the pixels.)"""
+    one, while MAE follows the bulk of the pixels.) Where the rows have the robust relMSE it must
+    be finite and not above the plain relMSE of the same snapshot (leaving out the pixels of
+    largest error cannot raise the mean)."""
     problems = []
     name = os.path.basename(os.path.normpath(data.get("dir", "?")))
     for s in data["samplers"]:
@@ -89,6 +130,13 @@ def sanity_problems(data):
                 v = r[key]["total"]
                 if v is None or not math.isfinite(v) or v < 0:
                     problems.append(f"{label}: snapshot {r['snapshot']}: {key} = {v}")
+            if ROBUST[0] in r:
+                v, plain = r[ROBUST[0]]["total"], r["relmse"]["total"]
+                if v is None or not math.isfinite(v) or v < 0:
+                    problems.append(f"{label}: snapshot {r['snapshot']}: {ROBUST[0]} = {v}")
+                elif plain is not None and math.isfinite(plain) and v > plain * (1 + 1e-9):
+                    problems.append(f"{label}: snapshot {r['snapshot']}: {ROBUST[0]} {v:.6g} "
+                                    f"is above relmse {plain:.6g}")
         good = [r for r in rows if usable(r)]
         if len(good) < 2:
             problems.append(f"{label}: fewer than two snapshots with every pixel sampled")
@@ -163,16 +211,19 @@ def worst_window(np, err, size):
 # ------------------------------------------------------------------------------------------
 
 def plot_errors(np, plt, data, out_png):
-    fig, axes = plt.subplots(1, len(METRICS), figsize=(5.2 * len(METRICS), 4.4))
+    """One log-log panel per metric of report_metrics (with the robust relMSE: four)."""
+    metrics = report_metrics(data)
+    width = 5.2 if len(metrics) <= 3 else 4.5
+    fig, axes = plt.subplots(1, len(metrics), figsize=(width * len(metrics), 4.4))
     cmap = plt.get_cmap("tab10")
-    for ax, (key, label) in zip(axes, METRICS):
+    for ax, (key, label) in zip(axes, metrics):
         for s in data["samplers"]:
             rows = sampler_rows(data, s["index"])
             color = cmap(s["index"] % 10)
             t = [r["time_s"] for r in rows if r[key]["total"]]
             e = [r[key]["total"] for r in rows if r[key]["total"]]
             full = [usable(r) for r in rows if r[key]["total"]]
-            fit = s["fit"][key]
+            fit = fit_of(s, key)
             name = s["spec"]
             if fit["slope"] is not None:
                 name += f"  (slope {fit['slope']:.2f})"
@@ -186,13 +237,18 @@ def plot_errors(np, plt, data, out_png):
                 xs = np.geomspace(min(ft), max(ft), 20)
                 ax.plot(xs, 10 ** fit["intercept"] * xs ** fit["slope"], ":", color=color, lw=1)
         floor = data["reference"].get("noise_" + key)
+        floor_label = "reference noise (estimate)"
+        if not floor and key == ROBUST[0]:
+            # No robust estimate of the reference's noise: its plain relMSE one, for scale.
+            floor = data["reference"].get("noise_relmse")
+            floor_label = "reference noise, plain relMSE (estimate)"
         if floor:
-            ax.axhline(floor, color="0.5", ls="--", lw=1, label="reference noise (estimate)")
+            ax.axhline(floor, color="0.5", ls="--", lw=1, label=floor_label)
         ax.set_xscale("log")
         ax.set_yscale("log")
         ax.set_xlabel("render time (s)")
         ax.set_ylabel(label)
-        ax.set_title(f"{label} against time")
+        ax.set_title(f"{label}{' (robust)' if key == ROBUST[0] else ''} against time")
         ax.grid(True, which="both", alpha=0.3)
         ax.legend(fontsize=7)
     fig.suptitle("hollow markers: first pass not finished (left out of the fits); dotted: fits",
@@ -273,8 +329,7 @@ def esc(s):
 
 def headline_html(data):
     levels = data["headline"]["levels"]
-    metric = {"mse": "MSE", "relmse": "relMSE", "rmse": "RMSE", "mae": "MAE"}[
-        data["headline"]["metric"]]
+    metric = headline_label(data)
     out = [f"<table><tr><th class=l>time (s) to reach {metric} E</th>"]
     out += [f"<th>E = {lv:.3g}</th>" for lv in levels]
     out.append("<th>speed-up at the lowest E</th></tr>")
@@ -287,9 +342,12 @@ def headline_html(data):
 
 
 def final_table_html(data):
+    robust = has_robust(data)
+    rl = ROBUST[1]
     out = ["<table><tr><th class=l>sampler</th><th>time s</th><th>mean spp</th><th>Mrays</th>"
-           "<th>MSE</th><th>relMSE</th><th>RMSE</th><th>PSNR dB</th><th>MAE</th>"
-           "<th>slope MSE</th><th>slope relMSE</th><th>slope MAE</th></tr>"]
+           "<th>MSE</th><th>relMSE</th>" + (f"<th>{rl}</th>" if robust else "")
+           + "<th>RMSE</th><th>PSNR dB</th><th>MAE</th><th>slope MSE</th><th>slope relMSE</th>"
+           + (f"<th>slope {rl}</th>" if robust else "") + "<th>slope MAE</th></tr>"]
     for s in data["samplers"]:
         rows = sampler_rows(data, s["index"])
         if not rows:
@@ -301,14 +359,17 @@ def final_table_html(data):
             return "-" if v is None else f"{v:.4g}"
 
         def sl(key):
-            v = s["fit"][key]["slope"]
+            v = fit_of(s, key)["slope"]
             return "-" if v is None else f"{v:.2f}"
 
         out.append(f"<tr><td class=l>{esc(s['description'])}</td><td>{r['time_s']:.3g}</td>"
                    f"<td>{r['mean_spp']:.1f}</td><td>{r['rays'] / 1e6:.1f}</td>"
-                   f"<td>{g('mse')}</td><td>{g('relmse')}</td><td>{g('rmse')}</td>"
-                   f"<td>{g('psnr')}</td><td>{g('mae')}</td>"
-                   f"<td>{sl('mse')}</td><td>{sl('relmse')}</td><td>{sl('mae')}</td></tr>")
+                   f"<td>{g('mse')}</td><td>{g('relmse')}</td>"
+                   + (f"<td>{g(ROBUST[0])}</td>" if robust else "")
+                   + f"<td>{g('rmse')}</td><td>{g('psnr')}</td><td>{g('mae')}</td>"
+                   f"<td>{sl('mse')}</td><td>{sl('relmse')}</td>"
+                   + (f"<td>{sl(ROBUST[0])}</td>" if robust else "")
+                   + f"<td>{sl('mae')}</td></tr>")
     out.append("</table>")
     return "".join(out)
 
@@ -351,16 +412,34 @@ def run_section(np, plt, colors, data, out_dir, heading):
         parts += ["<h3>Samples per pixel of the adaptive runs</h3>",
                   f"<img src='{esc(rel['spp'])}' alt='sample-count heat maps'>"]
     parts += ["<h3>Final snapshot</h3>", final_table_html(data)]
+    if has_robust(data):
+        parts.append(f"<p class=note>{ROBUST[1]}: relMSE with the 0.1% of pixels of largest "
+                     "relative error left out (robust to single fireflies).</p>")
     return "\n".join(parts)
 
 
 def summary_html(runs):
+    """One row per scene and sampler: final errors (relMSE, and the robust relMSE where any run
+    has it), the MSE slope, and the time to the lowest headline level."""
+    robust = any(has_robust(d) for d in runs)
+    rl = ROBUST[1]
+    labels = {headline_label(d) for d in runs}
+    # The headline metric in the header when all runs share it, else in every cell.
+    head_metric = labels.pop() if len(labels) == 1 else None
     out = ["<table><tr><th class=l>scene</th><th class=l>sampler</th><th>time s</th>"
-           "<th>mean spp</th><th>relMSE</th><th>slope MSE</th><th>E (headline)</th>"
+           "<th>mean spp</th><th>relMSE</th><th>relMSE / first</th>"
+           + (f"<th>{rl}</th><th>{rl} / first</th>" if robust else "")
+           + "<th>slope MSE</th>" + (f"<th>slope {rl}</th>" if robust else "")
+           + f"<th>E (headline{' ' + head_metric if head_metric else ''})</th>"
            "<th>time to E s</th><th>speed-up</th></tr>"]
     for data in runs:
         name = os.path.basename(os.path.normpath(data["dir"]))
         levels = data["headline"]["levels"]
+        run_robust = has_robust(data)
+        first_rows = sampler_rows(data, data["samplers"][0]["index"]) if data["samplers"] else []
+        first_plain = first_rows[-1]["relmse"]["total"] if first_rows else None
+        first_robust = (first_rows[-1][ROBUST[0]]["total"]
+                        if run_robust and first_rows else None)
         for s, sp in zip(data["samplers"], speedups(data)):
             rows = sampler_rows(data, s["index"])
             slope = s["fit"]["mse"]["slope"]
@@ -368,12 +447,24 @@ def summary_html(runs):
             cells = [esc(name), esc(s["spec"])]
             if rows:
                 r = rows[-1]
-                cells += [f"{r['time_s']:.3g}", f"{r['mean_spp']:.1f}",
-                          f"{r['relmse']['total']:.4g}"]
+                plain = r["relmse"]["total"]
+                cells += [f"{r['time_s']:.3g}", f"{r['mean_spp']:.1f}", f"{plain:.4g}",
+                          f"{plain / first_plain:.3f}" if first_plain else "-"]
             else:
-                cells += ["-", "-", "-"]
-            cells += ["-" if slope is None else f"{slope:.2f}",
-                      f"{levels[-1]:.3g}" if levels else "-",
+                cells += ["-", "-", "-", "-"]
+            if robust:
+                v = rows[-1][ROBUST[0]]["total"] if rows and run_robust else None
+                ratio = v / first_robust if v is not None and first_robust else None
+                rs = fit_of(s, ROBUST[0])["slope"] if run_robust else None
+                cells += ["-" if v is None else f"{v:.4g}",
+                          "-" if ratio is None else f"{ratio:.3f}"]
+            cells += ["-" if slope is None else f"{slope:.2f}"]
+            if robust:
+                cells += ["-" if rs is None else f"{rs:.2f}"]
+            level = f"{levels[-1]:.3g}" if levels else "-"
+            if levels and not head_metric:
+                level = f"{esc(headline_label(data))} {level}"
+            cells += [level,
                       crossing_text(cross) if cross else "-",
                       "-" if sp is None else f"{sp:.2f}x"]
             out.append("<tr>" + "".join(
@@ -391,7 +482,10 @@ def write_report(run_dirs, out_dir, title):
     if len(runs) > 1:
         body += ["<h2>Summary</h2>",
                  "<p class=note>time to reach the lowest headline error level of each scene; "
-                 "speed-up against the first sampler of the scene.</p>", summary_html(runs)]
+                 "speed-up against the first sampler of the scene. Errors of the final "
+                 f"snapshot, with their ratios to the first sampler of the scene; "
+                 f"{ROBUST[1]}: relMSE with the 0.1% of pixels of largest relative error left "
+                 "out (where the runs have it).</p>", summary_html(runs)]
     for data in runs:
         # The run folder's name (the suite names them after the scenes), and the scene file.
         scene = os.path.normpath(data["scene"])

@@ -123,9 +123,10 @@ class SamplerRun {
         o.max_spp = opt.overrides.spp ? uint32_t(*opt.overrides.spp) : 0;
         if (o.max_spp)
             o.min_spp = std::min(o.min_spp, o.max_spp);
-        // adaptive:refine=1 runs lower their target as regions complete, so they use the whole
-        // budget ("stopped" then means the spp cap or the floor target); refinement is opt-in.
-        apply_refinement(o, spec);
+        // Time is the budget: refining runs (the relMSE default, or refine=1) lower their
+        // target as regions complete and use the whole budget ("stopped" then means the spp
+        // cap or the floor target).
+        apply_refinement(o, spec, RenderBudget{true, opt.overrides.spp.has_value()});
         return o;
     }
 
@@ -138,7 +139,7 @@ class SamplerRun {
 
 // Fits and crossing times of the usable rows (coverage 1) of sampler `i`.
 void summarise_sampler(ConvergeResult &r, size_t i) {
-    std::vector<double> t, mse, rel, rmse, mae, head;
+    std::vector<double> t, mse, rel, rel_robust, rmse, mae, head;
     for (const ConvergenceRow &row : r.rows) {
         if (row.sampler != i)
             continue;
@@ -148,6 +149,7 @@ void summarise_sampler(ConvergeResult &r, size_t i) {
         t.push_back(row.time_s);
         mse.push_back(row.metrics.mse.total);
         rel.push_back(row.metrics.rel_mse.total);
+        rel_robust.push_back(row.metrics.rel_mse_robust.total);
         rmse.push_back(row.metrics.rmse.total);
         mae.push_back(row.metrics.mae.total);
         head.push_back(headline_value(row.metrics, r.metric));
@@ -155,6 +157,7 @@ void summarise_sampler(ConvergeResult &r, size_t i) {
     ConvergenceSampler &s = r.samplers[i];
     s.fit_mse = sampling::fit_loglog(t, mse);
     s.fit_rel_mse = sampling::fit_loglog(t, rel);
+    s.fit_rel_mse_robust = sampling::fit_loglog(t, rel_robust);
     s.fit_rmse = sampling::fit_loglog(t, rmse);
     s.fit_mae = sampling::fit_loglog(t, mae);
     s.crossings.clear();
@@ -195,6 +198,8 @@ std::string metric_label(const std::string &metric) {
         return "MSE";
     if (metric == "relmse")
         return "relMSE";
+    if (metric == "relmse-robust")
+        return "relMSE-0.1%";
     if (metric == "rmse")
         return "RMSE";
     return "MAE";
@@ -254,6 +259,7 @@ nlohmann::json result_json(const ConvergeResult &r, const ConvergeOptions &opt,
                             {"fit",
                              {{"mse", fit_json(s.fit_mse)},
                               {"relmse", fit_json(s.fit_rel_mse)},
+                              {"relmse_robust", fit_json(s.fit_rel_mse_robust)},
                               {"rmse", fit_json(s.fit_rmse)},
                               {"mae", fit_json(s.fit_mae)}}},
                             {"time_to_error", cross},
@@ -278,6 +284,7 @@ nlohmann::json result_json(const ConvergeResult &r, const ConvergeOptions &opt,
                         {"stopped", row.stopped},
                         {"mse", metric_json(m.mse)},
                         {"relmse", metric_json(m.rel_mse)},
+                        {"relmse_robust", metric_json(m.rel_mse_robust)},
                         {"rmse", metric_json(m.rmse)},
                         {"psnr", metric_json(m.psnr)},
                         {"mae", metric_json(m.mae)}});
@@ -310,8 +317,10 @@ void check_options(const ConvergeOptions &o) {
         throw SceneError("--first-snapshot: must lie in (0, --time]");
     if (o.output_dir.empty())
         throw SceneError("-o: an output folder is required");
-    if (o.metric != "mse" && o.metric != "relmse" && o.metric != "rmse" && o.metric != "mae")
-        throw SceneError("--metric: expected mse, relmse, rmse or mae, got \"" + o.metric + "\"");
+    if (o.metric != "mse" && o.metric != "relmse" && o.metric != "relmse-robust" &&
+        o.metric != "rmse" && o.metric != "mae")
+        throw SceneError("--metric: expected mse, relmse, relmse-robust, rmse or mae, got \"" +
+                         o.metric + "\"");
     for (double e : o.target_errors)
         if (!(e > 0) || !std::isfinite(e))
             throw SceneError("--target-error: must be > 0");
@@ -326,6 +335,8 @@ double headline_value(const sampling::ImageComparison &m, const std::string &met
         return m.mse.total;
     if (metric == "relmse")
         return m.rel_mse.total;
+    if (metric == "relmse-robust")
+        return m.rel_mse_robust.total;
     if (metric == "rmse")
         return m.rmse.total;
     if (metric == "mae")
@@ -395,7 +406,7 @@ std::string convergence_csv(const ConvergeResult &r) {
     std::ostringstream os;
     os << "sampler_index,sampler,snapshot,target_time_s,time_s,snapshot_cost_s,mean_spp,samples,"
           "rays,passes,coverage,stopped";
-    for (const char *m : {"mse", "relmse", "rmse", "psnr", "mae"})
+    for (const char *m : {"mse", "relmse", "rmse", "psnr", "mae", "relmse_robust"})
         os << "," << m << "_r," << m << "_g," << m << "_b," << m;
     os << "\n";
     char buf[64];
@@ -410,7 +421,8 @@ std::string convergence_csv(const ConvergeResult &r) {
            << "," << num(row.mean_spp) << "," << row.samples << "," << row.rays << "," << row.passes
            << "," << num(row.coverage) << "," << (row.stopped ? 1 : 0);
         const sampling::ImageComparison &m = row.metrics;
-        for (const sampling::ChannelMetric *cm : {&m.mse, &m.rel_mse, &m.rmse, &m.psnr, &m.mae})
+        for (const sampling::ChannelMetric *cm :
+             {&m.mse, &m.rel_mse, &m.rmse, &m.psnr, &m.mae, &m.rel_mse_robust})
             os << "," << num(cm->channel[0]) << "," << num(cm->channel[1]) << ","
                << num(cm->channel[2]) << "," << num(cm->total);
         os << "\n";
@@ -504,9 +516,10 @@ std::vector<std::unique_ptr<SamplerRun>> run_snapshots(const ConvergeOptions &op
             if (!opt.quiet)
                 std::fprintf(stderr,
                              "tessera: %-28s snapshot %zu/%zu  t %7.3f s  spp %8.1f  relMSE %.4g  "
-                             "MSE %.4g%s\n",
+                             "relMSE-0.1%% %.4g  MSE %.4g%s\n",
                              r.samplers[i].spec.c_str(), k + 1, n, row.time_s, row.mean_spp,
-                             row.metrics.rel_mse.total, row.metrics.mse.total,
+                             row.metrics.rel_mse.total, row.metrics.rel_mse_robust.total,
+                             row.metrics.mse.total,
                              row.stopped ? "  (stopped: converged or --spp reached)" : "");
             r.rows.push_back(row);
         }

@@ -53,7 +53,9 @@ struct ConvergeOptions {
     std::string reference;              ///< --reference REF.exr ("" : render and cache one)
     uint32_t reference_spp = 4096;      ///< --reference-spp
     std::string cache_dir;              ///< --cache-dir ("" : default_cache_dir())
-    std::string metric = "relmse";      ///< --metric of the headline: mse|relmse|rmse|mae
+    /// --metric of the headline: mse|relmse|relmse-robust|rmse|mae (relmse-robust: relMSE
+    /// without the 0.1% largest per-pixel errors, sampling/image_metrics.h)
+    std::string metric = "relmse-robust";
     std::vector<double> target_errors;  ///< --target-error (default: from the curves)
     bool report = true;                 ///< false: --no-report
     std::string report_script;          ///< --report-script ("" : find_report_script())
@@ -81,8 +83,9 @@ struct ConvergenceSampler {
     std::string spec;         ///< as given, e.g. "adaptive:error=0.002"
     std::string description;  ///< SamplerSpec::describe()
     std::string slug;         ///< file name stem: "<index>-<spec with safe characters>"
-    /// Log-log fits of error against time (rows with coverage 1): mse, relmse, rmse, mae.
-    sampling::LogLogFit fit_mse, fit_rel_mse, fit_rmse, fit_mae;
+    /// Log-log fits of error against time (rows with coverage 1): mse, relmse, robust relmse,
+    /// rmse, mae.
+    sampling::LogLogFit fit_mse, fit_rel_mse, fit_rel_mse_robust, fit_rmse, fit_mae;
     /// Time to reach each headline level (ConvergeResult::levels).
     std::vector<sampling::Crossing> crossings;
     double final_time_s = 0;

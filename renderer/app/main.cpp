@@ -72,7 +72,8 @@ void add_converge_command(CLI::App &app, ConvergeCli &c) {
         ->check(CLI::NonNegativeNumber);
     cmd->add_option("--seed", c.seed, "Sequence seed")->check(CLI::NonNegativeNumber);
     cmd->add_option("--metric", o.metric,
-                    "Error of the headline table: mse | relmse | rmse | mae (default relmse)");
+                    "Error of the headline table: mse | relmse | relmse-robust (relMSE without the "
+                    "0.1% largest per-pixel errors) | rmse | mae (default relmse-robust)");
     cmd->add_option("--target-error", o.target_errors,
                     "Error level(s) of the headline table, repeatable (default: from the curves)")
         ->allow_extra_args(false);

@@ -1,6 +1,8 @@
 #include "renderer/app/render.h"
 
+#include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <csignal>
 #include <cstdio>
 #include <filesystem>
@@ -81,15 +83,41 @@ sched::AdaptiveOptions scheduler_options(const Scene &scene, const SamplerSpec &
     return o;
 }
 
-void apply_refinement(sched::AdaptiveOptions &o, const SamplerSpec &sampler) {
+void apply_refinement(sched::AdaptiveOptions &o, const SamplerSpec &sampler,
+                      RenderBudget budget) {
     if (!o.adaptive)
         return;
-    o.refine_target = sampler.refine.value_or(false);
     o.refine_factor = sampler.refine_factor;
     o.refine_spp_ratio = sampler.refine_spp_ratio;
     o.refine_floor_ratio = sampler.refine_floor_ratio;
-    if (o.refine_target && !sampler.error)
-        o.error_target = kDefaultRefineStartTarget;
+    o.metric = sampler.metric();
+    if (sampler.dammertz) {
+        o.refine_target = sampler.refine.value_or(false);
+        if (o.refine_target && !sampler.error)
+            o.error_target = kDefaultRefineStartTarget;
+        return;
+    }
+    if (sampler.error) {
+        o.error_target = *sampler.error;
+        o.refine_target = sampler.refine.value_or(false);
+        return;
+    }
+    // No error: the budget decides.
+    o.refine_target = sampler.refine.value_or(budget.timed);
+    if (o.refine_target) {
+        o.error_target = kRelMseRefineStart;
+        // The best image in the time: the scene's pixelsamples is no cap, --spp is.
+        if (budget.timed && !budget.spp_given)
+            o.max_spp = 0;
+        return;
+    }
+    o.error_target = 0;
+    // A budget no larger than the uniform first pass leaves nothing to adapt: uniform to it.
+    if (o.max_spp > std::max(o.min_spp, 1u)) {
+        o.spp_budget = o.max_spp;
+        if (o.refine_spp_ratio > 0)
+            o.max_spp = uint32_t(std::min(4e9, std::ceil(double(o.max_spp) * o.refine_spp_ratio)));
+    }
 }
 
 bool keeps_prefix(const SamplerSpec &sampler) {
@@ -164,6 +192,17 @@ sampling::AovSet film_aovs(const RenderOptions &opt, const Scene &scene) {
     return stored;
 }
 
+/// Whether the progressive render of `opt` adapts at all (an spp budget no larger than the
+/// uniform first pass does not): only then does its film need the prefix snapshots.
+bool render_adapts(const RenderOptions &opt, const Scene &scene) {
+    SamplerSpec s = opt.sampler;
+    if (opt.min_spp) s.min_spp = *opt.min_spp;
+    if (opt.error) s.error = *opt.error;
+    sched::AdaptiveOptions o = scheduler_options(scene, s, opt.threads, true);
+    apply_refinement(o, s, RenderBudget{opt.time_s > 0, opt.overrides.spp.has_value()});
+    return o.adaptive && (o.error_target > 0 || o.spp_budget > 0);
+}
+
 /// A progressive render's state beside the film: the scheduler options it starts with, the
 /// checkpoint it writes and what a resumed checkpoint contributed.
 struct ProgressiveSetup {
@@ -185,7 +224,7 @@ ProgressiveSetup setup_progressive(const RenderOptions &opt, const Scene &scene,
     p.so = scheduler_options(scene, p.sampler, opt.threads, opt.quiet);
     p.so.deterministic = opt.deterministic;
     p.so.max_passes = opt.max_passes;
-    apply_refinement(p.so, p.sampler);
+    apply_refinement(p.so, p.sampler, RenderBudget{opt.time_s > 0, opt.overrides.spp.has_value()});
     p.start_error_target = p.so.error_target;
 
     p.cs.seed = scene.settings.seed;
@@ -316,7 +355,10 @@ nlohmann::json render_stats_json(const RenderOptions &opt, const Scene &scene,
         j["error_estimate"] = s.error_estimate;
     else
         j["error_estimate"] = nullptr;
+    j["error_metric"] = so.adaptive ? sampling::metric_name(so.metric) : "none";
     j["error_target"] = p.start_error_target;
+    j["spp_budget"] = so.spp_budget;
+    j["tree_target"] = s.tree_target;
     j["refine_target"] = so.refine_target;
     j["final_error_target"] = so.adaptive ? so.error_target : 0.0;
     j["refinements"] = s.refinements;
@@ -376,7 +418,8 @@ RenderReport run_render(const RenderOptions &opt) {
         return rep;
     }
     sampling::Film film(uint32_t(scene->settings.width), uint32_t(scene->settings.height),
-                        film_aovs(opt, *scene), keeps_prefix(opt.sampler));
+                        film_aovs(opt, *scene),
+                        keeps_prefix(opt.sampler) && render_adapts(opt, *scene));
     ProgressiveSetup p = setup_progressive(opt, *scene, film, rep);
 
     std::unique_ptr<SampleSource> integrator =
@@ -391,7 +434,8 @@ RenderReport run_render(const RenderOptions &opt) {
     // The per-pixel error estimate (Dammertz) as an AOV beside the sample count.
     sampling::ErrorImage errors;
     const sampling::PixelBounds whole{0, 0, int(film.width()), int(film.height())};
-    sampling::compute_errors(film, whole, p.so.min_samples_for_error, errors);
+    sampling::compute_errors(film, whole, p.so.min_samples_for_error, errors,
+                             p.so.adaptive ? p.so.metric : sampling::ErrorMetric::Dammertz);
     p.cs.passes = p.so.start_pass >= 0 ? uint32_t(p.so.start_pass) : rep.passes_total;
     p.cs.elapsed_s = p.elapsed_before + seconds_since(t_render);
     write_outputs(opt, film, errors, out, p.cs, rep);

@@ -22,14 +22,28 @@ std::pair<std::string, std::string> output_paths(const std::string &requested);
 sched::AdaptiveOptions scheduler_options(const Scene &scene, const SamplerSpec &sampler,
                                          uint32_t threads, bool quiet);
 
-/// Target refinement of an adaptive render (sched::AdaptiveOptions::refine_target): on only when
-/// the sampler asks for it (adaptive:refine=1; the scheduler ignores it without a time or spp
-/// budget). Refining without an explicit error starts at kDefaultRefineStartTarget. Other
-/// samplers are left as they are.
-void apply_refinement(sched::AdaptiveOptions &o, const SamplerSpec &sampler);
+/// How a render's budget was given: it decides what the adaptive sampler does with it.
+struct RenderBudget {
+    bool timed = false;      ///< a time budget (--time; `tessera converge` always)
+    bool spp_given = false;  ///< --spp given explicitly (a cap when timed)
+};
+
+/// The adaptive sampler's mode for a budget (sched::AdaptiveOptions::metric, error_target,
+/// refine_target, spp_budget, max_spp); other samplers are left as they are. `o` comes from
+/// scheduler_options (max_spp = the scene's spp).
+///  - relMSE metric (the default): an explicit error is the image relMSE to reach (refining
+///    only with refine=1). Without one, a time budget refines from kRelMseRefineStart until the
+///    time is spent (refine=0 turns it off), with no spp cap unless --spp is given; an spp
+///    budget N alone stops at the relMSE of N uniform samples (spp_budget = N), letting the
+///    hardest pixels go to refine_spp_ratio x N.
+///  - dammertz=1: refinement only when asked for (adaptive:refine=1), from
+///    kDefaultRefineStartTarget unless an error is given; the scene's spp caps.
+void apply_refinement(sched::AdaptiveOptions &o, const SamplerSpec &sampler,
+                      RenderBudget budget = {});
 
 /// True when the film of a render with `sampler` must keep prefix snapshots
-/// (sampling::Film keep_prefix): an adaptive sampler with prefix-error=1.
+/// (sampling::Film keep_prefix): an adaptive sampler with prefix-error=1 (the relMSE metric's
+/// default).
 bool keeps_prefix(const SamplerSpec &sampler);
 
 /// Scheduler options of a uniform render of `scene` to its spp (render_scene, the references).

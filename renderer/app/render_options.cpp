@@ -10,21 +10,28 @@ std::string SamplerSpec::describe() const {
     std::ostringstream os;
     os << name;
     if (name == "adaptive") {
-        os << ":error=" << (error ? *error : kDefaultErrorTarget);
-        if (min_spp) os << ",min-spp=" << *min_spp;
-        os << ",max-pass-spp=" << max_pass_spp << ",split-factor=" << split_factor
-           << ",min-extent=" << min_extent;
+        // The keys after "adaptive:", comma separated.
+        std::ostringstream k;
+        // The relMSE metric has no default error (the budget decides): error only when given.
+        if (dammertz)
+            k << ",dammertz=1,error=" << (error ? *error : kDefaultErrorTarget);
+        else if (error)
+            k << ",error=" << *error;
+        if (min_spp) k << ",min-spp=" << *min_spp;
+        k << ",max-pass-spp=" << max_pass_spp << ",split-factor=" << split_factor
+          << ",min-extent=" << min_extent;
         // Only when given: checkpoints compare this line, and older ones do not have it.
         if (refine)
-            os << ",refine=" << (*refine ? 1 : 0);
+            k << ",refine=" << (*refine ? 1 : 0);
         const sampling::ProgressiveSettings &d = sampling::kProgressiveDefaults;  // left out
-        if (refine_factor != d.refine_factor) os << ",refine-factor=" << refine_factor;
-        if (refine_spp_ratio != d.refine_spp_ratio) os << ",refine-spp-ratio=" << refine_spp_ratio;
+        if (refine_factor != d.refine_factor) k << ",refine-factor=" << refine_factor;
+        if (refine_spp_ratio != d.refine_spp_ratio) k << ",refine-spp-ratio=" << refine_spp_ratio;
         if (refine_floor_ratio != d.refine_floor_ratio)
-            os << ",refine-floor-ratio=" << refine_floor_ratio;
-        // Only when it differs from its default (on exactly when refining).
-        if (prefix_error != refine.value_or(false))
-            os << ",prefix-error=" << (prefix_error ? 1 : 0);
+            k << ",refine-floor-ratio=" << refine_floor_ratio;
+        // Only when it differs from its default (see prefix_error).
+        if (prefix_error != (dammertz ? refine.value_or(false) : true))
+            k << ",prefix-error=" << (prefix_error ? 1 : 0);
+        os << ":" << k.str().substr(1);
     }
     return os.str();
 }
@@ -50,8 +57,10 @@ SamplerSpec parse_sampler_spec(const std::string &text) {
         spec.refine_factor = p.get("refine-factor");
         spec.refine_spp_ratio = p.get("refine-spp-ratio");
         spec.refine_floor_ratio = p.get("refine-floor-ratio");
+        spec.dammertz = p.get("dammertz") != 0;
         spec.prefix_error = p.is_set("prefix-error") ? p.get("prefix-error") != 0
-                                                     : spec.refine.value_or(false);
+                            : spec.dammertz           ? spec.refine.value_or(false)
+                                                      : true;
     }
     return spec;
 }

@@ -15,9 +15,14 @@
 
 namespace tessera {
 
-/// Default region error target of the adaptive sampler (Dammertz e_b; see
+/// Default region error target of the adaptive sampler with dammertz=1 (Dammertz e_b; see
 /// sampling/region_tree.h and sampling/progressive_settings.h).
 inline constexpr double kDefaultErrorTarget = sampling::kProgressiveDefaults.error;
+
+/// Starting image relMSE of a refining relMSE-metric render (a time budget and no error): loose
+/// enough that only the worst regions are above its per-pixel threshold after the first pass
+/// (sched::AdaptiveScheduler, "Error metrics"); each refinement lowers it by refine_factor.
+inline constexpr double kRelMseRefineStart = sampling::kProgressiveDefaults.relmse_refine_start;
 
 /// Starting region error target of a refining adaptive render with no explicit error (a time
 /// budget and no `--error` / `error=`; see sched::AdaptiveOptions::refine_target and
@@ -54,8 +59,18 @@ struct SamplerSpec {
     double refine_floor_ratio = sampling::kProgressiveDefaults.refine_floor_ratio;
     /// adaptive:prefix-error=1: pixel errors compare the mean with the mean of the pixel's
     /// first 2^k samples instead of the half buffer (sampling/adaptive_error.h); the film then
-    /// keeps prefix snapshots (keeps_prefix). Unset: on exactly when refining (refine=1).
-    bool prefix_error = false;
+    /// keeps prefix snapshots (keeps_prefix). Unset: on with the relMSE metric, and with
+    /// dammertz=1 exactly when refining (refine=1).
+    bool prefix_error = true;
+    /// adaptive:dammertz=1: MoonRay's rule, the error target is Dammertz's area-weighted region
+    /// error (sched::AdaptiveOptions::metric = Dammertz, error default kDefaultErrorTarget,
+    /// refinement opt-in). Default (0): the target is the image relMSE and the budget decides
+    /// (apply_refinement).
+    bool dammertz = false;
+    /// The error metric the spec selects (Dammertz or RelMse).
+    sampling::ErrorMetric metric() const {
+        return dammertz ? sampling::ErrorMetric::Dammertz : sampling::ErrorMetric::RelMse;
+    }
     /// One line, e.g. "adaptive:error=0.002,min-spp=16".
     std::string describe() const;
 };

@@ -38,9 +38,16 @@ std::vector<PluginInfo> progressive_plugins() {
     adaptive.name = "adaptive";
     adaptive.kind = PluginKind::Progressive;
     adaptive.summary =
-        "MoonRay-style hierarchical adaptive stopping (Dammertz error, quadrant region trees)";
+        "MoonRay-style quadrant region trees; stops each region at the per-pixel relMSE "
+        "threshold that reaches the budget's image error with the fewest samples (dammertz=1: "
+        "Dammertz's region error)";
     adaptive.params = {
-        {"error", d.error, 0, 1e6, false, "region error (Dammertz e_b) below which a region stops"},
+        {"error", d.error, 0, 1e6, false,
+         "image relMSE to reach (dammertz=1: region error e_b, default " + number(d.error) +
+             "); unset: the budget decides (--time: refine, --spp N: the relMSE of N uniform "
+             "samples)"},
+        {"dammertz", 0, 0, 1, true,
+         "1: MoonRay's rule, Dammertz's area-weighted region error and a fixed target"},
         {"min-spp", double(d.min_spp), 1, 1 << 20, true,
          "samples per pixel of the uniform first pass"},
         {"max-pass-spp", double(d.max_pass_spp), 0, 1 << 20, true,
@@ -51,8 +58,9 @@ std::vector<PluginInfo> progressive_plugins() {
          "narrowest region a split may create, pixels"},
         {"refine", 0, 0, 1, true,
          "when every region is complete before the time/spp budget is spent, lower the error "
-         "target and go on (opt-in; starts from " +
-             number(d.refine_start_error) + " unless error= is given)"},
+         "target and go on (default: on with --time and no error=; starts from relMSE " +
+             number(d.relmse_refine_start) + ", dammertz=1: opt-in from " +
+             number(d.refine_start_error) + ", unless error= is given)"},
         {"refine-factor", d.refine_factor, 0.01, 0.99, false,
          "error target multiplier per refinement"},
         {"refine-spp-ratio", d.refine_spp_ratio, 0, 1e6, false,
@@ -61,8 +69,8 @@ std::vector<PluginInfo> progressive_plugins() {
          "refining: pixels below the mean spp / this are sampled anyway (0: no floor)"},
         {"prefix-error", 0, 0, 1, true,
          "1: pixel error against the mean of the first 2^k samples instead of the half buffer "
-         "(tracks the true error of Tessera's Sobol sequences; see README); unset: 1 exactly "
-         "when refine=1"},
+         "(tracks the true error of Tessera's Sobol sequences; see README); unset: 1, and with "
+         "dammertz=1 exactly when refine=1"},
     };
     out.push_back(adaptive);
     return out;

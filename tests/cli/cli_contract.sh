@@ -394,7 +394,7 @@ converge_good)
              out/images/0-uniform.exr out/images/1-adaptive-error-0.01.spp.pfm; do
         [[ -s "$f" ]] || fail "$f was not written"
     done
-    grep -q '^time to reach relMSE E' stdout.txt || fail "no headline table on stdout"
+    grep -q '^time to reach relMSE-0.1% E' stdout.txt || fail "no headline table on stdout"
     grep -Eq '^adaptive:error=0.01 ' stdout.txt || fail "the table has no adaptive row"
     leftovers="$(find . -name '*.tmp-*' -print)"
     [[ -z "$leftovers" ]] || fail "temporary files left behind: $leftovers"

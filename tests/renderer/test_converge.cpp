@@ -100,6 +100,8 @@ TEST_CASE("metrics of a snapshot against hand-computed values (MSE, relMSE, RMSE
     CHECK(m.mae.total == test::Approx(0.875 / 3));
     CHECK(headline_value(m, "mae") == test::Approx(0.875 / 3));
     CHECK(headline_value(m, "relmse") == m.rel_mse.total);
+    CHECK(headline_value(m, "relmse-robust") == m.rel_mse_robust.total);
+    CHECK(m.rel_mse_robust.total <= m.rel_mse.total);
     CHECK_THROWS_AS(headline_value(m, "psnr"), std::invalid_argument);
 
     CHECK(sampling::nonfinite_count(test) == 0);
@@ -204,10 +206,12 @@ TEST_CASE("headline levels, table and CSV of a result") {
     std::getline(is, header);
     CHECK(header.rfind("sampler_index,sampler,snapshot,target_time_s,time_s,", 0) == 0);
     for (const char *col : {",mean_spp,", ",samples,", ",rays,", ",coverage,", ",mse_r,",
-                            ",relmse,", ",rmse_b,", ",psnr,", ",mae_g,"})
+                            ",relmse,", ",rmse_b,", ",psnr,", ",mae_g,", ",relmse_robust_r,"})
         CHECK(header.find(col) != std::string::npos);
     const size_t columns = size_t(std::count(header.begin(), header.end(), ',')) + 1;
-    CHECK(columns == 12 + 5 * 4);
+    CHECK(columns == 12 + 6 * 4);
+    CHECK(header.size() >= 14);
+    CHECK(header.substr(header.size() - 14) == ",relmse_robust");
     size_t lines = 0;
     while (std::getline(is, line)) {
         ++lines;

@@ -4,6 +4,8 @@
 
 #include <cmath>
 #include <limits>
+#include <random>
+#include <string>
 
 #include "approx.h"
 #include "sampling/adaptive_error.h"
@@ -165,4 +167,50 @@ TEST_CASE("image error and error summary") {
     CHECK(s.pixels == 4);
     CHECK(s.unknown_pixels == 1);
     CHECK(s.mean_finite == test::Approx(1.0 / std::sqrt(2.0)));
+}
+
+TEST_CASE("pixel relMSE estimate: hand-computed values, +inf exactly where pixel_error is") {
+    // I = (0.5, 0.25, 0.25), A = (0.7, 0.25, 0.05), half buffer (k = 1):
+    // (0.04 / 0.26 + 0 + 0.04 / 0.0725) / 3.
+    const PixelStats st = stats({0.5, 0.25, 0.25}, {0.7, 0.25, 0.05}, 8, 4);
+    CHECK(pixel_rel_mse(st, 2) ==
+          test::Approx((0.04 / 0.26 + 0.04 / (0.0625 + 0.01)) / 3).epsilon(1e-6));
+    CHECK(pixel_rel_mse(stats({3, 2, 1}, {3, 2, 1}, 16, 8), 2) == 0.f);
+    CHECK(pixel_rel_mse(stats({1, 1, 1}, {1.5, 1, 1}, 3, 1), 4) == kInfF);  // too few
+    CHECK(pixel_rel_mse(stats({1, 1, 1}, {1.5, 1, 1}, 8, 0), 2) == kInfF);  // empty half
+    CHECK(pixel_rel_mse(stats({1, 1, 1}, {1.5, 1, 1}, 8, 8), 2) == kInfF);  // no even sample
+    CHECK(std::string(metric_name(ErrorMetric::RelMse)) == "relmse");
+    CHECK(std::string(metric_name(ErrorMetric::Dammertz)) == "dammertz");
+}
+
+TEST_CASE("pixel relMSE estimate is unbiased for the relMSE of independent samples") {
+    // 4000 pixels of n i.i.d. samples, mean 0.5 (R), 2 (G), 0.05 (B), uniform noise of
+    // amplitude s: Var(I_c) = s^2 / (3 n). Over the pixels, the mean estimate must match
+    // (1/3) sum_c Var(I_c) / (mu_c^2 + 0.01) (the estimate divides by I_c^2, not mu_c^2: a
+    // second-order effect, 1-2% here), for both the half buffer and the prefix.
+    constexpr uint32_t kPixels = 4000;
+    const float mu[3] = {0.5f, 2.f, 0.05f};
+    for (bool prefix : {false, true})
+        for (uint32_t n : {16u, 48u, 128u}) {
+            CAPTURE(prefix);
+            CAPTURE(n);
+            Film film(kPixels, 1, {}, prefix);
+            std::mt19937 rng(17 + n);
+            std::uniform_real_distribution<float> u(-1.f, 1.f);
+            constexpr float s = 0.04f;
+            for (uint32_t p = 0; p < kPixels; ++p)
+                for (uint32_t i = 0; i < n; ++i)
+                    film.add_sample(p, 0, i,
+                                    radiance_sample(mu[0] + s * u(rng), mu[1] + s * u(rng),
+                                                    mu[2] + s * u(rng)));
+            double est = 0;
+            for (uint32_t p = 0; p < kPixels; ++p)
+                est += pixel_rel_mse(film.pixel_stats(p, 0), 2);
+            est /= kPixels;
+            double expected = 0;
+            for (float m : mu)
+                expected += (s * s / (3.0 * n)) / (double(m) * m + 0.01);
+            expected /= 3;
+            CHECK(est == test::Approx(expected).epsilon(0.06));
+        }
 }

@@ -663,3 +663,41 @@ TEST_CASE("extreme sizes and error magnitudes keep valid floating-point splits")
         }
     }
 }
+
+TEST_CASE("mean mode (area_weighted = false): a hot cell inside a calm quadrant stays open") {
+    // 64x64 quadrant, error 0.1 x target everywhere but one 8x8 block at 50 x target: the
+    // quadrant's mean is 0.88 x target, so averaging would call it complete. In mean mode
+    // complete regions still split down to min_extent, and only the hot block stays open.
+    const PixelBounds quad{0, 0, 64, 64};
+    ErrorImage img = make_image(64, 64, 0.1f);
+    for (int y = 40; y < 48; ++y)
+        for (int x = 16; x < 24; ++x) at(img, x, y) = 50.f;
+    RegionTreeParams p;
+    p.target = 1.0;
+    p.min_extent = 8;
+    p.area_weighted = false;
+    RegionTree tree(quad, quad, 64.0 * 64.0);
+    tree.rebuild(img, p);
+    CHECK(tree.params().area_weighted == false);
+    CHECK(!tree.complete());
+    CHECK(tree.pixel_active(19, 43));
+    CHECK(!tree.pixel_active(50, 10));
+    CHECK(!tree.pixel_active(2, 2));
+    // The open area is about the hot block (leaves are 8-16 pixels wide), not the quadrant.
+    CHECK(tree.open_area() >= 64.0);
+    CHECK(tree.open_area() <= 4 * 64.0);
+    // The root's error is the plain mean (r = 1).
+    CHECK(tree.root_error() == tessera::test::Approx((0.1 * (4096 - 64) + 50.0 * 64) / 4096).epsilon(1e-6));
+
+    // Dammertz's weighting on the same image: the root's e_b is the mean times r = 1.
+    RegionTreeParams d = p;
+    d.area_weighted = true;
+    tree.rebuild(img, d);
+    CHECK(tree.root_error() == tessera::test::Approx((0.1 * (4096 - 64) + 50.0 * 64) / 4096).epsilon(1e-6));
+
+    // Everything below the target: complete in mean mode too.
+    ErrorImage calm = make_image(64, 64, 0.5f);
+    tree.rebuild(calm, p);
+    CHECK(tree.complete());
+    CHECK(tree.open_area() == 0.0);
+}

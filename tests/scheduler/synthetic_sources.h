@@ -3,6 +3,7 @@
 // Every source counts the evaluate() calls per pixel with atomics, and (for images up to 2^20
 // pixels) the sum and sum of squares of the sample indices, so a test can check that each pixel
 // received exactly the indices 0 .. n-1, once each.
+// TwoNoiseSource: flat 0.5 with two noise levels (inside a rectangle and outside).
 // Also: VisitRecorder (checks the adaptive scheduler's tile visits through its hooks, with
 // seeded random per-tile delays) and leaves_partition (region-tree leaves tile the grown rect).
 #pragma once
@@ -347,5 +348,31 @@ inline bool leaves_partition(const sampling::RegionTree &tree) {
     }
     return true;
 }
+
+/// Uneven difficulty: flat 0.5 with hash noise of amplitude `hard` inside `rect` and `easy`
+/// elsewhere (so the easy part has an error estimate too, only a smaller one). Thread-safe.
+class TwoNoiseSource final : public SampleSource {
+  public:
+    TwoNoiseSource(uint32_t w, uint32_t h, sampling::PixelBounds rect, float hard, float easy)
+        : w_(w), h_(h), rect_(rect), hard_(hard), easy_(easy) {}
+    uint32_t width() const override { return w_; }
+    uint32_t height() const override { return h_; }
+    std::string describe() const override { return "TwoNoiseSource"; }
+    Sample evaluate(const CameraSample &cs) const override {
+        const bool inside = int(cs.px) >= rect_.x0 && int(cs.px) < rect_.x1 &&
+                            int(cs.py) >= rect_.y0 && int(cs.py) < rect_.y1;
+        const float u = 2.f * hash01(cs.px, cs.py, cs.index, 11) - 1.f;
+        Sample s;
+        s.rays = 1;
+        s.radiance = Rgb(0.5f + (inside ? hard_ : easy_) * u);
+        return s;
+    }
+
+  private:
+    uint32_t w_, h_;
+    sampling::PixelBounds rect_;
+    float hard_, easy_;
+};
+
 
 }  // namespace tessera::test
