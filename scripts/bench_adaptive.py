@@ -32,6 +32,8 @@ renders at about --pixels pixels with its own aspect ratio. Per scene:
 - the error estimate against the truth: an adaptive `tessera render` writes its per-pixel relMSE
   estimate (the EXR's `error` layer); summed over 8x8 tiles, the median ratio estimate / true
   error and the correlation of their logarithms;
+- `--error E` with E = uniform's final robust relMSE: the robust relMSE reached / E, and the
+  render time against the uniform run's;
 - seams: the robust relMSE ratio of the images box-filtered to 8x8 tiles against the full
   resolution ratio (block-wise bias of the stopping decisions would raise the first).
 
@@ -238,7 +240,23 @@ def bench_scene(path, args, out):
     est_ratio = float(np.median(be[ok] / bt[ok])) if ok.any() else None
     est_corr = float(np.corrcoef(np.log(be[ok]), np.log(bt[ok]))[0, 1]) if ok.sum() > 2 else None
 
+    # --error E means what converge measures: render to uniform's final robust relMSE.
+    target = float(np.mean([final_rows(c)[0]["relmse_robust"]["total"] for c in conv]))
+    exr = os.path.join(sdir, "error-target.exr")
+    js = os.path.join(sdir, "error-target.json")
+    run([tess, "render", path, "--sampler", args.sampler, "--error", f"{target:.6g}",
+         "--spp", "1000000", "--seed", str(args.first_seed), "-o", exr, "--stats", js, "-q",
+         "--no-png"] + common)
+    with open(js) as f:
+        et = json.load(f)
+    img = ie.read_exr(exr)
+    error_mode = {"target": target, "relmse_robust": ie.rel_mse_robust(img, ref),
+                  "relmse": ie.rel_mse(img, ref), "wall_s": et["wall_s"],
+                  "estimate": et["error_estimate"], "converged": et["converged"],
+                  "uniform_time_s": float(np.mean([final_rows(c)[0]["time_s"] for c in conv]))}
+
     return {
+        "error_mode": error_mode,
         "scene": name, "path": os.path.relpath(path, ROOT), "resolution": res,
         "reference_spp": args.reference_spp, "reference_noise_relmse": noise,
         "uniform_spp": float(np.mean(u_spp)),
@@ -268,8 +286,8 @@ def table(results, args):
         "(mean [min, max] over seeds; reference noise subtracted).", "",
         "| scene | res | uniform spp | robust relMSE ratio | relMSE ratio | time to uniform's "
         "error | oracle (tile) | 10% share | spp budget: time x error | est/true, log corr | "
-        "seam: tile / full |",
-        "|---|---|---|---|---|---|---|---|---|---|---|"]
+        "seam: tile / full | --error E: reached / E, time |",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in results:
         if "error" in r:
             lines.append(f"| {r['scene']} | failed: {r['error']} |")
@@ -283,7 +301,9 @@ def table(results, args):
             f"{fmt(r['spp_time_to_uniform_error'])} (N={r['spp_budget']}) | "
             f"{(r['estimate_over_true'] or float('nan')):.2f}, "
             f"{(r['estimate_log_corr'] or float('nan')):.2f} | "
-            f"{r['seam_tile_ratio']:.2f} / {r['seam_full_ratio']:.2f} |")
+            f"{r['seam_tile_ratio']:.2f} / {r['seam_full_ratio']:.2f} | "
+            f"{r['error_mode']['relmse_robust'] / r['error_mode']['target']:.2f}, "
+            f"{r['error_mode']['wall_s'] / r['error_mode']['uniform_time_s']:.2f}x |")
     ok = [r for r in results if "error" not in r]
     if ok:
         rr = [r["ratio_robust"]["mean"] for r in ok]
