@@ -482,6 +482,8 @@ AdaptiveScheduler::AdaptiveScheduler(const SampleSource &source, sampling::Film 
         tile_a_sum_ = std::make_unique<std::atomic<double>[]>(tiles_.size());
         tile_sqrt_a_sum_ = std::make_unique<std::atomic<double>[]>(tiles_.size());
         tile_rho_sum_ = std::make_unique<std::atomic<double>[]>(tiles_.size());
+        tile_cost_ = std::make_unique<std::atomic<double>[]>(tiles_.size());
+        tile_cost_samples_ = std::make_unique<std::atomic<uint64_t>[]>(tiles_.size());
     }
     tiles_x_ = tiles_x;
     tile_at_.assign(size_t(tiles_x) * tiles_y, 0);
@@ -557,10 +559,40 @@ void AdaptiveScheduler::init_error_snapshot() {
     for (size_t t = 0; t < tiles_.size(); ++t) publish_tile_error(t);
 }
 
+double AdaptiveScheduler::tile_cost(size_t t) const {
+    // Relative to the image's mean cost per sample, so that a tile not sampled in this render
+    // yet (a resumed film, or every tile before the first visit) counts as average (1) in the
+    // same units as the others.
+    // The mean is the one of the last rebuild: in the deterministic mode it then changes only
+    // between passes (the totals grow during a pass in the order the threads finish).
+    const uint64_t n = tile_cost_samples_[t].load(std::memory_order_relaxed);
+    const double mean = mean_cost_.load(std::memory_order_relaxed);
+    if (n == 0 || !(mean > 0))
+        return 1.0;
+    const double c = tile_cost_[t].load(std::memory_order_relaxed) / double(n);
+    return std::max(c / mean, 1e-6);
+}
+
+void AdaptiveScheduler::add_tile_cost(size_t t, double cost, uint64_t samples) {
+    if (!relmse_ || samples == 0)
+        return;
+    // Only the tile's owner writes its entries; the image totals are shared.
+    tile_cost_[t].store(tile_cost_[t].load(std::memory_order_relaxed) + cost,
+                        std::memory_order_relaxed);
+    tile_cost_samples_[t].store(tile_cost_samples_[t].load(std::memory_order_relaxed) + samples,
+                                std::memory_order_relaxed);
+    double cur = cost_sum_.load(std::memory_order_relaxed);
+    while (!cost_sum_.compare_exchange_weak(cur, cur + cost, std::memory_order_relaxed)) {
+    }
+    cost_samples_.fetch_add(samples, std::memory_order_relaxed);
+}
+
 void AdaptiveScheduler::publish_tile_error(size_t t) {
     const Tile &tile = tiles_[t];
     const uint32_t w = film_.width();
     double sum = 0, a_sum = 0, sqrt_a_sum = 0, rho_sum = 0;
+    // RelMse: per unit of cost (see "Error metrics"); c > 0.
+    const double c = relmse_ ? tile_cost(t) : 1.0;
     uint32_t unknown = 0;
     for (uint32_t y = tile.y0; y < tile.y1; ++y)
         for (uint32_t x = tile.x0; x < tile.x1; ++x) {
@@ -570,17 +602,19 @@ void AdaptiveScheduler::publish_tile_error(size_t t) {
                 ++unknown;  // +inf or NaN: no estimate
                 continue;
             }
-            sum += double(std::max(e, 0.f));
+            sum += double(std::max(e, 0.f)) / c;
             if (relmse_) {
                 const double a = std::max(0.0, double(a_snapshot_[i].load(std::memory_order_relaxed)));
                 a_sum += a;
-                sqrt_a_sum += std::sqrt(a);
-                rho_sum += std::sqrt(a * double(std::max(e, 0.f)));  // rho = sqrt(m a)
+                sqrt_a_sum += std::sqrt(a * c);
+                rho_sum += std::sqrt(a * double(std::max(e, 0.f)) / c);  // rho = sqrt(m a)
             }
         }
     tile_error_sum_[t].store(sum, std::memory_order_relaxed);
     tile_unknown_[t].store(unknown, std::memory_order_relaxed);
     if (relmse_) {
+        // rho = sqrt(m a) was summed with m / c: undo the cost.
+        rho_sum *= std::sqrt(c);
         tile_a_sum_[t].store(a_sum, std::memory_order_relaxed);
         tile_sqrt_a_sum_[t].store(sqrt_a_sum, std::memory_order_relaxed);
         tile_rho_sum_[t].store(rho_sum, std::memory_order_relaxed);
@@ -732,6 +766,7 @@ void AdaptiveScheduler::select_pixels_by_error(const Tile &tile, double target,
     const uint32_t w = film_.width();
     std::array<uint8_t, kTilePixels> keep{};
     bool any = false;
+    const double cost = tile_cost(size_t(&tile - tiles_.data()));
     for (uint32_t i = 0; i < n; ++i) {
         if (!ws.active[i])
             continue;
@@ -746,7 +781,7 @@ void AdaptiveScheduler::select_pixels_by_error(const Tile &tile, double target,
                 sum += double(std::max(e, 0.f));
                 ++count;
             }
-        keep[i] = unknown || sum >= target * count;
+        keep[i] = unknown || sum >= target * count * cost;
         any = any || keep[i];
     }
     if (any)
@@ -845,7 +880,12 @@ void AdaptiveScheduler::process_tile(size_t t, uint32_t pass, RenderContext &ctx
     }
 
     TileTally tally;
+    const auto t_sample = Clock::now();
     const bool any_active = sample_tile(tile, target, pixel_cap, ws, tally);
+    // The cost of a sample here: rays in the deterministic mode (timing must not decide the
+    // image), else seconds, which also see what a ray costs to shade (a layered material).
+    add_tile_cost(t, options_.deterministic ? double(tally.rays) : seconds_since(t_sample),
+                  tally.samples);
     if (adaptive_ && snapshot_tile_errors(tile, ws))
         publish_tile_error(t);
     if (any_active)
@@ -914,6 +954,12 @@ bool AdaptiveScheduler::rebuild_quadrant(int q, RenderContext &ctx, WorkerState 
     if (refine_)
         ctx.raise_guards(options_);
     sampling::RegionTreeParams params;
+    if (relmse_) {
+        const uint64_t n = cost_samples_.load(std::memory_order_relaxed);
+        if (n > 0)
+            mean_cost_.store(cost_sum_.load(std::memory_order_relaxed) / double(n),
+                             std::memory_order_relaxed);
+    }
     params.target = tree_target(level);
     params.split_factor = options_.split_factor;
     params.min_extent = options_.min_extent;

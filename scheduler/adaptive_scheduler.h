@@ -87,7 +87,15 @@
 // threshold t = (P E / sum_p sqrt(a_p))^2 on m_p, the relMSE one more sample removes, and the
 // trees compare the plain mean of m_p over a region with t (RegionTreeParams::area_weighted =
 // false). Stopping every region at the same m_p is the allocation n_p ~ sqrt(a_p) that reaches
-// E with the fewest samples (Lagrange; the oracle of the benchmark in the README). With
+// E with the fewest samples (Lagrange; the oracle of the benchmark in the README). Samples do
+// not cost the same everywhere (a background pixel that sees the sky against a layered
+// material several bounces deep: 2x the time per sample on pbrt-v4's material-testball), so
+// the budget is time, not samples: with c_p the cost of one sample (its tile's mean seconds
+// per sample in this render, measured, relative to the image's mean; rays per sample in the
+// deterministic mode, so that timing cannot change the image), the least time for E is n_p ~ sqrt(a_p / c_p), every pixel stopping at
+// the same m_p / c_p = (P E / sum_p sqrt(a_p c_p))^2; the tiles publish sums of m_p / c_p and
+// sqrt(a_p c_p) for it. Inside an open region a pixel is sampled while the mean of m_p / c_p
+// over its 3x3 neighbourhood (within its tile) is above the threshold. With
 // spp_budget N instead of a target, E is the relMSE of N uniform samples, (1 / P) sum a_p / N,
 // re-estimated at every rebuild. Refining, the level lowers E itself by refine_factor. The sums
 // are read from the published tile atomics at every rebuild (O(tiles); in the deterministic
@@ -419,6 +427,17 @@ class AdaptiveScheduler {
     // sums of a_p, sqrt(a_p) and rho_p over its pixels with an estimate.
     std::unique_ptr<std::atomic<float>[]> a_snapshot_;
     std::unique_ptr<std::atomic<double>[]> tile_a_sum_, tile_sqrt_a_sum_, tile_rho_sum_;
+    // RelMse metric: per tile the cost of its samples in this render (seconds, or rays in the
+    // deterministic mode) and their count; the image's totals for tiles not sampled yet.
+    std::unique_ptr<std::atomic<double>[]> tile_cost_;
+    std::unique_ptr<std::atomic<uint64_t>[]> tile_cost_samples_;
+    std::atomic<double> cost_sum_{0};
+    std::atomic<uint64_t> cost_samples_{0};
+    std::atomic<double> mean_cost_{0};  // cost_sum_ / cost_samples_ as of the last rebuild
+    /// Cost per sample of tile t relative to the image's mean (1 before it has one).
+    double tile_cost(size_t t) const;
+    /// Adds a visit's cost and samples to tile t (its owner calls it).
+    void add_tile_cost(size_t t, double cost, uint64_t samples);
     bool relmse_ = false;
     // Per tile: passes completed (absolute pass index + 1), for the tile-order wait.
     std::unique_ptr<std::atomic<uint32_t>[]> tile_done_;

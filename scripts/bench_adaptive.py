@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Adaptive against uniform sampling on every scene: equal time, equal spp, the oracle bound.
 
-    scripts/bench_adaptive.py [-o OUT] [--tessera build/tessera] [--seeds 5] [--time 3]
+    scripts/bench_adaptive.py [-o OUT] [--tessera build/tessera] [--seeds 5] [--time S]
                               [--pixels 20000] [--reference-spp 2048] [--threads 2]
                               [--spp-seeds 3] [--scenes SUBSTR,...] [--extra SCENE ...]
                               [--sampler adaptive] [--cache-dir DIR]
@@ -10,8 +10,9 @@ Scenes: every scene under ../shared/scenes (the Bitterli set, both Cornell boxes
 folder is skipped with a message when it is missing) and every example, plus --extra files. Each
 renders at about --pixels pixels with its own aspect ratio. Per scene:
 
-- equal time: one `tessera converge` per seed (uniform and the adaptive sampler for --time
-  seconds each, log-spaced snapshots) against one cached uniform reference of --reference-spp
+- equal time: one `tessera converge` per seed (uniform and the adaptive sampler for the same
+  time each: --time, or per scene the time uniform sampling needs for --auto-spp (128) samples
+  per pixel, measured by a short render, within --min-time and --max-time (2-10 s) log-spaced snapshots) against one cached uniform reference of --reference-spp
   samples; per seed the ratio adaptive / uniform of the final relMSE and of the robust relMSE
   (the 0.1% largest per-pixel errors left out, sampling/image_metrics.h), reported as the mean
   and range over the seeds, both with the reference's own noise (converge's estimate) subtracted;
@@ -148,11 +149,24 @@ def bench_scene(path, args, out):
     tess = args.tessera
     res = f"{w}x{h}"
     common = ["--resolution", res, "--threads", str(args.threads)]
+    budget = args.time
+    if budget is None:
+        # The time uniform sampling needs for about --auto-spp samples per pixel (from a short
+        # uniform render's rate), within [--min-time, --max-time]: a budget of a few samples per
+        # pixel leaves an adaptive sampler nothing to decide after its uniform first pass.
+        js = os.path.join(sdir, "rate.json")
+        run([tess, "render", path, "--sampler", "uniform", "--spp", "16", "-o",
+             os.path.join(sdir, "rate.exr"), "--stats", js, "-q", "--no-png"] + common)
+        with open(js) as f:
+            st = json.load(f)
+        rate = st["samples"] / max(st["wall_s"], 1e-6)
+        budget = min(args.max_time, max(args.min_time, args.auto_spp * w * h / rate))
+        budget = round(budget, 1)
     conv, ref_path = [], None
     for k in range(args.seeds):
         seed = args.first_seed + k
         d = os.path.join(sdir, f"seed-{seed}")
-        cmd = [tess, "converge", path, "-o", d, "--time", str(args.time), "--seed", str(seed),
+        cmd = [tess, "converge", path, "-o", d, "--time", str(budget), "--seed", str(seed),
                "--sampler", "uniform", "--sampler", args.sampler, "--no-report", "-q"] + common
         cmd += ["--reference", ref_path] if ref_path else \
             ["--reference-spp", str(args.reference_spp), "--cache-dir", args.cache_dir]
@@ -229,7 +243,7 @@ def bench_scene(path, args, out):
 
     # The error estimate against the truth (seed 1, an adaptive render with its error layer).
     exr = os.path.join(sdir, "estimate.exr")
-    run([tess, "render", path, "--sampler", args.sampler, "--time", str(args.time),
+    run([tess, "render", path, "--sampler", args.sampler, "--time", str(budget),
          "--spp", "1000000", "--seed", str(args.first_seed), "-o", exr, "-q", "--no-png"] + common)
     img = ie.read_exr(exr)
     est = ie.read_exr(exr, "error.Y")[..., 0].astype(np.float64)
@@ -258,6 +272,7 @@ def bench_scene(path, args, out):
     return {
         "error_mode": error_mode,
         "scene": name, "path": os.path.relpath(path, ROOT), "resolution": res,
+        "time_s": budget,
         "reference_spp": args.reference_spp, "reference_noise_relmse": noise,
         "uniform_spp": float(np.mean(u_spp)),
         "ratio_relmse": stats_of(ratio), "ratio_robust": stats_of(ratio_robust),
@@ -281,19 +296,20 @@ def fmt(s, digits=2):
 
 def table(results, args):
     lines = [
-        f"Equal time {args.time:g} s ({args.threads} threads), {args.seeds} seeds, ~{args.pixels} "
+        f"Equal time ({'%g s' % args.time if args.time else 'per scene: uniform ~%g spp, %g-%g s' % (args.auto_spp, args.min_time, args.max_time)}; "
+        f"{args.threads} threads), {args.seeds} seeds, ~{args.pixels} "
         f"pixels, references {args.reference_spp} spp; sampler `{args.sampler}` / uniform "
         "(mean [min, max] over seeds; reference noise subtracted).", "",
-        "| scene | res | uniform spp | robust relMSE ratio | relMSE ratio | time to uniform's "
+        "| scene | res | time | uniform spp | robust relMSE ratio | relMSE ratio | time to uniform's "
         "error | oracle (tile) | 10% share | spp budget: time x error | est/true, log corr | "
         "seam: tile / full | --error E: reached / E, time |",
-        "|---|---|---|---|---|---|---|---|---|---|---|---|"]
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in results:
         if "error" in r:
             lines.append(f"| {r['scene']} | failed: {r['error']} |")
             continue
         lines.append(
-            f"| {r['scene']} | {r['resolution']} | {r['uniform_spp']:.0f} | "
+            f"| {r['scene']} | {r['resolution']} | {r['time_s']:g} s | {r['uniform_spp']:.0f} | "
             f"{fmt(r['ratio_robust'])} | {fmt(r['ratio_relmse'])} | "
             f"{'>' if r['time_extrapolated'] else ''}{fmt(r['time_to_uniform_error'])} | "
             f"{r['oracle']:.2f} ({r['oracle_tile']:.2f}) | {r['share_10pct']:.2f}"
@@ -325,7 +341,10 @@ def main():
     ap.add_argument("--seeds", type=int, default=5)
     ap.add_argument("--first-seed", type=int, default=1)
     ap.add_argument("--spp-seeds", type=int, default=3)
-    ap.add_argument("--time", type=float, default=3)
+    ap.add_argument("--time", type=float, help="seconds per sampler (default: automatic)")
+    ap.add_argument("--auto-spp", type=float, default=128)
+    ap.add_argument("--min-time", type=float, default=2)
+    ap.add_argument("--max-time", type=float, default=10)
     ap.add_argument("--pixels", type=int, default=20000)
     ap.add_argument("--reference-spp", type=int, default=2048)
     ap.add_argument("--threads", type=int, default=2)
