@@ -33,6 +33,12 @@ struct ProgressiveSettings {
     /// The same for the relMSE metric (the `adaptive` default): an image relMSE. Levels above
     /// the film's own error cost one rebuild each, so starting loose costs almost nothing.
     double relmse_refine_start = 1.0;
+    /// adaptive:refine-track: refining with the relMSE metric, the target is at most this times
+    /// the image's current estimated relMSE (scheduler/adaptive_scheduler.h, "Error metrics");
+    /// 0: off. Off by default: at 0.8 it lost 5-13% on the diffuse Cornell box,
+    /// material-testball and teapot (a per-pixel estimate of a few dozen samples stops pixels
+    /// too early) and won 5-15% on veach-mis-like scenes (scripts/bench_adaptive.py, 2 seeds).
+    double refine_track = 0;
     /// adaptive:refine-factor: error target multiplier per refinement, in (0, 1).
     double refine_factor = 0.5;
     /// adaptive:refine-spp-ratio: refining, no pixel above this x the mean spp (0: no cap).

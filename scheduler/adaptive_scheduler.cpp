@@ -634,9 +634,20 @@ double AdaptiveScheduler::tree_target(uint32_t level) const {
     }
     const double pixels = std::max(1.0, double(film_.width()) * double(film_.height()));
     // spp_budget: the relMSE of that many uniform samples, as the film estimates it now.
-    const double e = !refine_ && options_.error_target <= 0 && options_.spp_budget > 0
-                         ? a_sum / (pixels * double(options_.spp_budget))
-                         : e_target;
+    double e = !refine_ && options_.error_target <= 0 && options_.spp_budget > 0
+                   ? a_sum / (pixels * double(options_.spp_budget))
+                   : e_target;
+    // Refining, the target also tracks the image's estimated relMSE: at most refine_track
+    // times it. The level alone waits for every region to complete before it falls, so while
+    // the hardest region works at one level every pixel above its threshold takes the same
+    // samples per pass, hard or less hard; a target just below the current error keeps only
+    // the pixels whose m_p / c_p exceeds refine_track^2 times the common value of the optimal
+    // allocation open, at every rebuild.
+    if (refine_ && options_.refine_track > 0) {
+        const double now = published_image_error();
+        if (std::isfinite(now) && now > 0)
+            e = std::min(e, options_.refine_track * now);
+    }
     if (!(sqrt_a_sum > 0))
         return std::numeric_limits<double>::infinity();  // no noise anywhere: nothing to do
     const double root = pixels * e / sqrt_a_sum;
@@ -759,13 +770,14 @@ void AdaptiveScheduler::select_pixels_by_error(const Tile &tile, double target,
     // The 3x3 mean steadies the estimate of single pixels (about one degree of freedom per
     // channel each). Only the tile's own pixels are read: their snapshot changes only in this
     // tile's visits, while a neighbouring tile's may or may not have been rendered in this pass
-    // yet, which would make the deterministic mode depend on timing. If no pixel qualifies
-    // (the region's mean is above the threshold only through pixels outside this tile) the
-    // open pixels are kept, so that an open region always samples.
+    // yet, which would make the deterministic mode depend on timing. (A one-pixel spike of
+    // 9x the threshold still lifts its 3x3 mean above it.) If no pixel of the tile qualifies, the region is open for pixels in other tiles (a leaf spans
+    // several): this tile is skipped. (A region whose every pixel is below the threshold only
+    // through the smoothing takes no samples; refining, its quadrant's idle pass counts as
+    // complete.)
     const uint32_t tw = tile.width(), n = tile.pixel_count();
     const uint32_t w = film_.width();
     std::array<uint8_t, kTilePixels> keep{};
-    bool any = false;
     const double cost = tile_cost(size_t(&tile - tiles_.data()));
     for (uint32_t i = 0; i < n; ++i) {
         if (!ws.active[i])
@@ -782,12 +794,8 @@ void AdaptiveScheduler::select_pixels_by_error(const Tile &tile, double target,
                 ++count;
             }
         keep[i] = unknown || sum >= target * count * cost;
-        any = any || keep[i];
     }
-    if (any)
-        for (uint32_t i = 0; i < n; ++i) {
-            ws.active[i] = keep[i];
-        }
+    for (uint32_t i = 0; i < n; ++i) ws.active[i] = keep[i];
 }
 
 bool AdaptiveScheduler::sample_tile(const Tile &tile, uint32_t target, uint32_t pixel_cap,

@@ -97,7 +97,11 @@
 // sqrt(a_p c_p) for it. Inside an open region a pixel is sampled while the mean of m_p / c_p
 // over its 3x3 neighbourhood (within its tile) is above the threshold. With
 // spp_budget N instead of a target, E is the relMSE of N uniform samples, (1 / P) sum a_p / N,
-// re-estimated at every rebuild. Refining, the level lowers E itself by refine_factor. The sums
+// re-estimated at every rebuild. Refining, the level lowers E itself by refine_factor, and E is
+// at most refine_track times the image's current estimated relMSE (so that the threshold
+// follows the error between levels; t then sits at refine_track^2 of the common m_p / c_p of the
+// optimal allocation for the current error: a pixel drops out once it holds about
+// 1 / refine_track times its share of samples). The sums
 // are read from the published tile atomics at every rebuild (O(tiles); in the deterministic
 // mode they are fixed between passes, so the result stays bit-identical).
 #pragma once
@@ -164,6 +168,11 @@ struct AdaptiveOptions {
     /// a geometric series and the refinement events (a skipped pass and four rebuilds each)
     /// stay few: O(log(budget)).
     double refine_factor = sampling::kProgressiveDefaults.refine_factor;
+    /// RelMse metric, refining: the target is also at most refine_track x the image's
+    /// estimated relMSE at each rebuild, so that the pixels of largest marginal gain keep the
+    /// samples while the level waits for the hardest region (see "Error metrics"). In [0, 1);
+    /// 0: levels only (the default, sampling/progressive_settings.h says why).
+    double refine_track = sampling::kProgressiveDefaults.refine_track;
     /// No refinement below this target: the render then stops as converged.
     double refine_min_target = 1e-7;
     /// Refining, no pixel takes more than this many times the image's mean samples per pixel

@@ -90,6 +90,7 @@ void apply_refinement(sched::AdaptiveOptions &o, const SamplerSpec &sampler,
     o.refine_factor = sampler.refine_factor;
     o.refine_spp_ratio = sampler.refine_spp_ratio;
     o.refine_floor_ratio = sampler.refine_floor_ratio;
+    o.refine_track = sampler.refine_track;
     o.metric = sampler.metric();
     if (sampler.dammertz) {
         o.refine_target = sampler.refine.value_or(false);

@@ -28,6 +28,7 @@ std::string SamplerSpec::describe() const {
         if (refine_spp_ratio != d.refine_spp_ratio) k << ",refine-spp-ratio=" << refine_spp_ratio;
         if (refine_floor_ratio != d.refine_floor_ratio)
             k << ",refine-floor-ratio=" << refine_floor_ratio;
+        if (refine_track != d.refine_track) k << ",refine-track=" << refine_track;
         // Only when it differs from its default (see prefix_error).
         if (prefix_error != (dammertz ? refine.value_or(false) : true))
             k << ",prefix-error=" << (prefix_error ? 1 : 0);
@@ -57,6 +58,7 @@ SamplerSpec parse_sampler_spec(const std::string &text) {
         spec.refine_factor = p.get("refine-factor");
         spec.refine_spp_ratio = p.get("refine-spp-ratio");
         spec.refine_floor_ratio = p.get("refine-floor-ratio");
+        spec.refine_track = p.get("refine-track");
         spec.dammertz = p.get("dammertz") != 0;
         spec.prefix_error = p.is_set("prefix-error") ? p.get("prefix-error") != 0
                             : spec.dammertz           ? spec.refine.value_or(false)

@@ -53,10 +53,12 @@ struct SamplerSpec {
     /// adaptive:refine=0|1; unset: off (opt-in, see apply_refinement: it helps some scenes
     /// and hurts others).
     std::optional<bool> refine;
-    // adaptive:refine-factor, refine-spp-ratio, refine-floor-ratio.
+    // adaptive:refine-factor, refine-spp-ratio, refine-floor-ratio, refine-track.
     double refine_factor = sampling::kProgressiveDefaults.refine_factor;
     double refine_spp_ratio = sampling::kProgressiveDefaults.refine_spp_ratio;
     double refine_floor_ratio = sampling::kProgressiveDefaults.refine_floor_ratio;
+    /// adaptive:refine-track (ProgressiveSettings::refine_track).
+    double refine_track = sampling::kProgressiveDefaults.refine_track;
     /// adaptive:prefix-error=1: pixel errors compare the mean with the mean of the pixel's
     /// first 2^k samples instead of the half buffer (sampling/adaptive_error.h); the film then
     /// keeps prefix snapshots (keeps_prefix). Unset: on with the relMSE metric, and with

@@ -67,6 +67,8 @@ std::vector<PluginInfo> progressive_plugins() {
          "refining: no pixel above this x the mean spp (0: no cap)"},
         {"refine-floor-ratio", d.refine_floor_ratio, 0, 1e6, false,
          "refining: pixels below the mean spp / this are sampled anyway (0: no floor)"},
+        {"refine-track", d.refine_track, 0, 0.99, false,
+         "refining (relMSE): target at most this x the current estimated relMSE (0: off)"},
         {"prefix-error", 0, 0, 1, true,
          "1: pixel error against the mean of the first 2^k samples instead of the half buffer "
          "(tracks the true error of Tessera's Sobol sequences; see README); unset: 1, and with "
