@@ -181,10 +181,11 @@ struct AdaptiveOptions {
     /// target (fireflies; a narrow leaf in a tile of frozen errors) from taking the whole
     /// budget. 0: no cap.
     double refine_spp_ratio = sampling::kProgressiveDefaults.refine_spp_ratio;
-    /// Refining, pixels below the image's mean samples per pixel / this ratio (as of the last
-    /// quadrant rebuild; never above the cap) are sampled even inside completed regions: the
-    /// Dammertz estimate of a few dozen samples can call a region complete before it showed a
-    /// rare bright path (a small light's silhouette, a caustic). 0: no floor.
+    /// Refining, and always with the RelMse metric, pixels below the image's mean samples per
+    /// pixel / this ratio (as of the last quadrant rebuild; never above the cap) are sampled
+    /// even inside completed regions while the render goes on: the estimate of a few dozen
+    /// samples can call a region complete before it showed a rare bright path (a small light's
+    /// silhouette, a caustic). 0: no floor.
     double refine_floor_ratio = sampling::kProgressiveDefaults.refine_floor_ratio;
     bool adaptive = true;        ///< false: uniform passes (every pixel active)
     bool deterministic = false;  ///< barrier between passes: bit-identical for any thread count
@@ -380,8 +381,8 @@ class AdaptiveScheduler {
     /// Marks the tile's active pixels in ws.active; false when the tile is skipped whole.
     bool select_active_pixels(const Tile &tile, Quadrant &quad, uint32_t pass,
                               RenderContext &ctx, WorkerState &ws);
-    /// RelMse metric: within the tile's open regions, keeps the pixels whose 3x3 mean m_p
-    /// reaches `target` (all of them if none does).
+    /// RelMse metric: within the tile's open regions, keeps the pixels whose 3x3 mean of
+    /// m_p / c_p reaches kSelectMargin x `target`.
     void select_pixels_by_error(const Tile &tile, double target, WorkerState &ws) const;
     /// Takes the active pixels' samples of the pass; true when some pixel was active.
     bool sample_tile(const Tile &tile, uint32_t target, uint32_t pixel_cap, WorkerState &ws,
@@ -448,6 +449,7 @@ class AdaptiveScheduler {
     /// Adds a visit's cost and samples to tile t (its owner calls it).
     void add_tile_cost(size_t t, double cost, uint64_t samples);
     bool relmse_ = false;
+    bool floor_guard_ = false;  // refine_floor_ratio applies (refining, or the relMSE metric)
     // Per tile: passes completed (absolute pass index + 1), for the tile-order wait.
     std::unique_ptr<std::atomic<uint32_t>[]> tile_done_;
 };

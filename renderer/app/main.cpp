@@ -111,7 +111,9 @@ void add_render_command(CLI::App &app, RenderCli &c) {
                        "Output EXR (a display PNG is written beside it); default: the scene's "
                        "Film filename");
     render->add_option("--spp", c.spp,
-                       "Maximum samples per pixel (overrides the scene's pixelsamples)")
+                       "Samples per pixel (overrides the scene's pixelsamples): uniform's count; "
+                       "the adaptive sampler reaches that count's relMSE with fewer samples, or "
+                       "caps with --time / --error")
         ->check(CLI::PositiveNumber);
     render->add_option("--resolution", c.resolution, "Film resolution WxH (overrides the scene)");
     render->add_option("--threads", ro.threads, "Worker threads (default: all cores)");
@@ -139,7 +141,8 @@ void add_render_command(CLI::App &app, RenderCli &c) {
                        "Samples per pixel of the uniform first pass (default 16)")
         ->check(CLI::PositiveNumber);
     render->add_option("--error", c.error_target,
-                       "Adaptive stopping: region error target (Dammertz; 0: none)")
+                       "Adaptive stopping: the image relMSE to reach (with adaptive:dammertz=1 Dammertz's "
+                       "region error; 0: none)")
         ->check(CLI::NonNegativeNumber);
     render->add_flag("--deterministic", ro.deterministic,
                      "Barriers between passes: the same image for any thread count");
