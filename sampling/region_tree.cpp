@@ -352,7 +352,14 @@ void RegionTree::build(int n, int depth) {
     const int axis = extent(b, 0) >= extent(b, 1) ? 0 : 1;
     const bool can_split = depth < params_.max_depth &&
                            extent(b, axis) >= 2 * params_.min_extent && sum > 0;
-    if (!any_own || (node.own_error < params_.target && (params_.area_weighted || !can_split))) {
+    // Mean mode: no leaf below can reach the target when even all of the region's error in the
+    // smallest leaf a split can make (min_extent on each side) stays below it, so the region is
+    // complete without splitting (calm regions cost one node, not one per tile).
+    const double min_leaf = std::min(extent(b, 0), params_.min_extent) *
+                            std::min(extent(b, 1), params_.min_extent);
+    const bool calm = !params_.area_weighted && min_leaf > 0 && sum / min_leaf < params_.target;
+    if (!any_own ||
+        (node.own_error < params_.target && (params_.area_weighted || !can_split || calm))) {
         node.complete = true;
         return;
     }
