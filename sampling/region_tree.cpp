@@ -354,7 +354,9 @@ void RegionTree::build(int n, int depth) {
                            extent(b, axis) >= 2 * params_.min_extent && sum > 0;
     // Mean mode: no leaf below can reach the target when even all of the region's error in the
     // smallest leaf a split can make (min_extent on each side) stays below it, so the region is
-    // complete without splitting (calm regions cost one node, not one per tile).
+    // complete without splitting (calm regions cost one node, not one per tile). A leaf whose
+    // own part is a sliver at the quadrant's edge is judged on that part alone and could read
+    // higher; the margin's pixels are the neighbour's, which judges them whole.
     const double min_leaf = std::min(extent(b, 0), params_.min_extent) *
                             std::min(extent(b, 1), params_.min_extent);
     const bool calm = !params_.area_weighted && min_leaf > 0 && sum / min_leaf < params_.target;
