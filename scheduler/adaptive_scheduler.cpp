@@ -577,7 +577,10 @@ double AdaptiveScheduler::tile_cost(size_t t) const {
 }
 
 void AdaptiveScheduler::add_tile_cost(size_t t, double cost, uint64_t samples) {
-    if (!relmse_ || samples == 0)
+    // Deterministic: every sample costs 1 (tile_cost stays 1). The image must depend on the
+    // film alone, and the film keeps no costs: N passes + a resume to M must equal M passes
+    // straight, and a resumed scheduler starts without the costs the first one measured.
+    if (!relmse_ || samples == 0 || options_.deterministic)
         return;
     // Only the tile's owner writes its entries; the image totals are shared.
     tile_cost_[t].store(tile_cost_[t].load(std::memory_order_relaxed) + cost,
@@ -901,10 +904,9 @@ void AdaptiveScheduler::process_tile(size_t t, uint32_t pass, RenderContext &ctx
     TileTally tally;
     const auto t_sample = Clock::now();
     const bool any_active = sample_tile(tile, target, pixel_cap, ws, tally);
-    // The cost of a sample here: rays in the deterministic mode (timing must not decide the
-    // image), else seconds, which also see what a ray costs to shade (a layered material).
-    add_tile_cost(t, options_.deterministic ? double(tally.rays) : seconds_since(t_sample),
-                  tally.samples);
+    // The cost of a sample here in seconds, which also see what a ray costs to shade (a layered
+    // material); none in the deterministic mode (see add_tile_cost).
+    add_tile_cost(t, seconds_since(t_sample), tally.samples);
     if (adaptive_ && snapshot_tile_errors(tile, ws))
         publish_tile_error(t);
     if (any_active)

@@ -91,8 +91,9 @@
 // not cost the same everywhere (a background pixel that sees the sky against a layered
 // material several bounces deep: 2x the time per sample on pbrt-v4's material-testball), so
 // the budget is time, not samples: with c_p the cost of one sample (its tile's mean seconds
-// per sample in this render, measured, relative to the image's mean; rays per sample in the
-// deterministic mode, so that timing cannot change the image), the least time for E is n_p ~ sqrt(a_p / c_p), every pixel stopping at
+// per sample in this render, measured, relative to the image's mean; 1 in the deterministic
+// mode, where the image must depend on the film alone: timing must not change it, and a resumed
+// render has no costs of the passes before), the least time for E is n_p ~ sqrt(a_p / c_p), every pixel stopping at
 // the same m_p / c_p = (P E / sum_p sqrt(a_p c_p))^2; the tiles publish sums of m_p / c_p and
 // sqrt(a_p c_p) for it. Inside an open region a pixel is sampled while the mean of m_p / c_p
 // over its 3x3 neighbourhood (within its tile) is above the threshold. With
@@ -437,7 +438,7 @@ class AdaptiveScheduler {
     // sums of a_p, sqrt(a_p) and rho_p over its pixels with an estimate.
     std::unique_ptr<std::atomic<float>[]> a_snapshot_;
     std::unique_ptr<std::atomic<double>[]> tile_a_sum_, tile_sqrt_a_sum_, tile_rho_sum_;
-    // RelMse metric: per tile the cost of its samples in this render (seconds, or rays in the
+    // RelMse metric: per tile the cost of its samples in this render (seconds; nothing in the
     // deterministic mode) and their count; the image's totals for tiles not sampled yet.
     std::unique_ptr<std::atomic<double>[]> tile_cost_;
     std::unique_ptr<std::atomic<uint64_t>[]> tile_cost_samples_;
