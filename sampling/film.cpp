@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <stdexcept>
 #include <sstream>
 
@@ -184,6 +185,57 @@ void Film::restore(std::vector<PixelData> pixels, AovData aovs, uint64_t nan_cou
     aov_ = std::move(aovs);
     prefix_ = std::move(prefix);
     nan_count_.store(nan_count, std::memory_order_relaxed);
+}
+
+size_t Film::packed_pixel_bytes() const {
+    return sizeof(PixelData) + (aovs_.has(Aov::Albedo) ? sizeof(Float3) : 0) +
+           (aovs_.has(Aov::Normal) ? sizeof(Float3) : 0) +
+           (aovs_.has(Aov::Depth) ? sizeof(float) : 0) +
+           (keeps_prefix() ? sizeof(PrefixData) : 0);
+}
+
+namespace {
+
+template <class T> void put(std::vector<std::byte> &out, const T &v) {
+    const auto *b = reinterpret_cast<const std::byte *>(&v);
+    out.insert(out.end(), b, b + sizeof(T));
+}
+
+template <class T> void take(const std::byte *&in, T &v) {
+    std::memcpy(&v, in, sizeof(T));
+    in += sizeof(T);
+}
+
+}  // namespace
+
+void Film::pack_pixels(std::span<const uint32_t> indices, std::vector<std::byte> &out) const {
+    out.reserve(out.size() + indices.size() * packed_pixel_bytes());
+    for (uint32_t i : indices) {
+        put(out, pixels_[i]);
+        if (!aov_.albedo.empty()) put(out, aov_.albedo[i]);
+        if (!aov_.normal.empty()) put(out, aov_.normal[i]);
+        if (!aov_.depth.empty()) put(out, aov_.depth[i]);
+        if (!prefix_.empty()) put(out, prefix_[i]);
+    }
+}
+
+void Film::unpack_pixels(std::span<const uint32_t> indices, std::span<const std::byte> in,
+                         uint64_t nan_count) {
+    if (in.size() != indices.size() * packed_pixel_bytes())
+        throw std::invalid_argument("Film::unpack_pixels: " + std::to_string(in.size()) +
+                                    " bytes for " + std::to_string(indices.size()) +
+                                    " pixels of " + std::to_string(packed_pixel_bytes()));
+    const std::byte *p = in.data();
+    for (uint32_t i : indices) {
+        if (i >= pixels_.size())
+            throw std::invalid_argument("Film::unpack_pixels: pixel index outside the film");
+        take(p, pixels_[i]);
+        if (!aov_.albedo.empty()) take(p, aov_.albedo[i]);
+        if (!aov_.normal.empty()) take(p, aov_.normal[i]);
+        if (!aov_.depth.empty()) take(p, aov_.depth[i]);
+        if (!prefix_.empty()) take(p, prefix_[i]);
+    }
+    nan_count_.fetch_add(nan_count, std::memory_order_relaxed);
 }
 
 }  // namespace tessera::sampling

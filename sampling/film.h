@@ -27,6 +27,7 @@
 #include <atomic>
 #include <cstddef>
 #include <cstdint>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -171,6 +172,19 @@ class Film {
     /// Throws std::invalid_argument otherwise. Not thread-safe.
     void restore(std::vector<PixelData> pixels, AovData aovs, uint64_t nan_count,
                  std::vector<PrefixData> prefix = {});
+
+    /// Bytes one pixel's whole state takes in pack_pixels: its PixelData, the AOV means the
+    /// film keeps and its prefix snapshots.
+    size_t packed_pixel_bytes() const;
+    /// Appends the exact state of the pixels with row-major indices `indices` to `out` (a
+    /// distributed render sends the pixels a rank owns to rank 0 this way). Not thread-safe
+    /// against add_sample.
+    void pack_pixels(std::span<const uint32_t> indices, std::vector<std::byte> &out) const;
+    /// Overwrites the pixels `indices` with the state pack_pixels wrote for the same indices
+    /// on a film of the same size, AOVs and prefix setting; adds `nan_count` to nan_count().
+    /// Throws std::invalid_argument when `in` has not exactly that size. Not thread-safe.
+    void unpack_pixels(std::span<const uint32_t> indices, std::span<const std::byte> in,
+                       uint64_t nan_count = 0);
 
   private:
 

@@ -197,6 +197,7 @@ struct AdaptiveScheduler::RenderContext {
     Clock::time_point start, deadline;
     bool timed = false;
     uint64_t first_pass = 0, pass_end = 0;
+    uint64_t film_total = 0;  // samples in the whole film (all ranks) when the passes start
     tbb::task_arena *arena = nullptr;  // the workers' arena while the passes run
     // Catch-up passes (see run_passes): wanted at all, and the schedule's last target.
     bool catch_up = false;
@@ -493,6 +494,16 @@ AdaptiveScheduler::AdaptiveScheduler(const SampleSource &source, sampling::Film 
     for (size_t t = 0; t < tiles_.size(); ++t)
         tile_at_[size_t(tiles_[t].ty) * tiles_x + tiles_[t].tx] = uint32_t(t);
     tile_done_ = std::make_unique<std::atomic<uint32_t>[]>(tiles_.size());
+    group_ = options_.group;
+    if (group_) {
+        ranks_ = std::max(1u, group_->size());
+        rank_ = group_->rank();
+        if (rank_ >= ranks_)
+            throw std::invalid_argument("AdaptiveScheduler: rank outside its group");
+    }
+    for (size_t t = 0; t < tiles_.size(); ++t)
+        if (tile_owner(t, ranks_) == rank_)
+            owned_tiles_.push_back(uint32_t(t));
 }
 
 AdaptiveScheduler::~AdaptiveScheduler() = default;
@@ -547,19 +558,72 @@ void AdaptiveScheduler::snapshot_pixel_error(uint32_t x, uint32_t y) {
 }
 
 void AdaptiveScheduler::init_error_snapshot() {
-    const uint32_t w = film_.width(), h = film_.height();
-    const bool empty = film_.total_samples() == 0;
-    for (uint32_t y = 0; y < h; ++y)
-        for (uint32_t x = 0; x < w; ++x) {
-            if (empty) {
-                error_snapshot_[size_t(y) * w + x].store(kInfF, std::memory_order_relaxed);
-                if (relmse_)
-                    a_snapshot_[size_t(y) * w + x].store(0.f, std::memory_order_relaxed);
-            } else {
-                snapshot_pixel_error(x, y);
+    // This rank's tiles (all of them in a single process): a distributed rank's film holds
+    // only its own tiles' samples; the others' sums arrive with exchange_tile_sums.
+    const uint32_t w = film_.width();
+    for (uint32_t t : owned_tiles_) {
+        const Tile &tile = tiles_[t];
+        for (uint32_t y = tile.y0; y < tile.y1; ++y)
+            for (uint32_t x = tile.x0; x < tile.x1; ++x) {
+                if (film_.sample_count(x, y) == 0) {
+                    error_snapshot_[size_t(y) * w + x].store(kInfF, std::memory_order_relaxed);
+                    if (relmse_)
+                        a_snapshot_[size_t(y) * w + x].store(0.f, std::memory_order_relaxed);
+                } else {
+                    snapshot_pixel_error(x, y);
+                }
+            }
+        publish_tile_error(t);
+    }
+    if (group_)
+        exchange_tile_sums();
+}
+
+namespace {
+// Values per tile in the exchange: error sum and unknown count, and with the relMSE metric
+// the sums of a_p, sqrt(a_p c_p) and rho_p.
+constexpr size_t kDammertzTileValues = 2, kRelMseTileValues = 5;
+}  // namespace
+
+void AdaptiveScheduler::exchange_tile_sums() {
+    const size_t k = relmse_ ? kRelMseTileValues : kDammertzTileValues;
+    const size_t n_tiles = tiles_.size();
+    std::vector<size_t> counts(ranks_);
+    for (uint32_t r = 0; r < ranks_; ++r)
+        counts[r] = k * (r < n_tiles ? (n_tiles - r + ranks_ - 1) / ranks_ : 0);
+    std::vector<double> mine;
+    mine.reserve(k * owned_tiles_.size());
+    for (uint32_t t : owned_tiles_) {
+        mine.push_back(tile_error_sum_[t].load(std::memory_order_relaxed));
+        mine.push_back(double(tile_unknown_[t].load(std::memory_order_relaxed)));
+        if (relmse_) {
+            mine.push_back(tile_a_sum_[t].load(std::memory_order_relaxed));
+            mine.push_back(tile_sqrt_a_sum_[t].load(std::memory_order_relaxed));
+            mine.push_back(tile_rho_sum_[t].load(std::memory_order_relaxed));
+        }
+    }
+    std::vector<double> all(k * n_tiles);
+    group_->all_gather(mine, counts, all);
+    size_t i = 0;
+    for (uint32_t r = 0; r < ranks_; ++r)
+        for (size_t t = r; t < n_tiles; t += ranks_, i += k) {
+            if (r == rank_)
+                continue;
+            tile_error_sum_[t].store(all[i], std::memory_order_relaxed);
+            tile_unknown_[t].store(uint32_t(all[i + 1]), std::memory_order_relaxed);
+            if (relmse_) {
+                tile_a_sum_[t].store(all[i + 2], std::memory_order_relaxed);
+                tile_sqrt_a_sum_[t].store(all[i + 3], std::memory_order_relaxed);
+                tile_rho_sum_[t].store(all[i + 4], std::memory_order_relaxed);
             }
         }
-    for (size_t t = 0; t < tiles_.size(); ++t) publish_tile_error(t);
+}
+
+double AdaptiveScheduler::group_sum(double v) const {
+    if (!group_)
+        return v;
+    group_->sum(std::span<double>(&v, 1));
+    return v;
 }
 
 double AdaptiveScheduler::tile_cost(size_t t) const {
@@ -1058,7 +1122,11 @@ bool AdaptiveScheduler::rebuild_quadrant(int q, RenderContext &ctx, WorkerState 
 
 bool AdaptiveScheduler::open_pixel_below(uint32_t target, WorkerState &ws) const {
     // No rebuild runs concurrently (every worker has joined): the live trees are read as is.
-    for (size_t t = 0; t < tiles_.size(); ++t) {
+    // Distributed: each rank looks at its own tiles, and any rank's answer counts.
+    bool found = false;
+    for (uint32_t t : owned_tiles_) {
+        if (found)
+            break;
         const Tile &tile = tiles_[t];
         const Quadrant &quad = *quadrants_[tile_quadrant_[t]];
         quad.live().active_rects(
@@ -1067,9 +1135,9 @@ bool AdaptiveScheduler::open_pixel_below(uint32_t target, WorkerState &ws) const
             for (int y = std::max(r.y0, int(tile.y0)); y < std::min(r.y1, int(tile.y1)); ++y)
                 for (int x = std::max(r.x0, int(tile.x0)); x < std::min(r.x1, int(tile.x1)); ++x)
                     if (film_.sample_count(uint32_t(x), uint32_t(y)) < target)
-                        return true;
+                        found = true;
     }
-    return false;
+    return group_ ? group_sum(found ? 1.0 : 0.0) > 0 : found;
 }
 
 void AdaptiveScheduler::rebuild_all(RenderContext &ctx, WorkerState &ws, bool pass_end) {
@@ -1200,10 +1268,15 @@ uint64_t AdaptiveScheduler::resume_pass_of_film(uint64_t n_passes) const {
     if (options_.start_pass >= 0)
         return uint64_t(options_.start_pass);
     // Resume: start at the first pass some pixel still needs.
-    uint32_t min_taken = std::numeric_limits<uint32_t>::max();
-    for (uint32_t y = 0; y < film_.height(); ++y)
-        for (uint32_t x = 0; x < film_.width(); ++x)
-            min_taken = std::min(min_taken, film_.sample_count(x, y));
+    uint64_t min_taken = std::numeric_limits<uint32_t>::max();
+    for (uint32_t t : owned_tiles_) {
+        const Tile &tile = tiles_[t];
+        for (uint32_t y = tile.y0; y < tile.y1; ++y)
+            for (uint32_t x = tile.x0; x < tile.x1; ++x)
+                min_taken = std::min<uint64_t>(min_taken, film_.sample_count(x, y));
+    }
+    if (group_)
+        group_->min(std::span<uint64_t>(&min_taken, 1));
     uint64_t p0 = 0;
     while (p0 < n_passes && pass_target(options_, p0) <= min_taken)
         ++p0;
@@ -1234,7 +1307,7 @@ void AdaptiveScheduler::reset_for_render(RenderContext &ctx, uint64_t p0) {
     ctx.open_mask.store(open);
     ctx.nonempty_mask = open;
     ctx.pixels = std::max<uint64_t>(1, pixels);
-    ctx.film_samples.store(film_.total_samples());
+    ctx.film_samples.store(ctx.film_total);
     for (int q = 0; q < 4; ++q)
         quadrants_[size_t(q)]->pass_samples.store(0);
     if (floor_guard_)
@@ -1276,16 +1349,67 @@ bool AdaptiveScheduler::catch_up_wanted(uint64_t pass, RenderContext &ctx, Worke
            ctx.open_mask.load() != 0 && open_pixel_below(ctx.last_target, ws);
 }
 
+// What the ranks sum at a pass end (exchange_pass): the counters as they were before the pass.
+struct AdaptiveScheduler::PassCounters {
+    uint64_t film_samples = 0, cost_samples = 0, samples = 0, rays = 0;
+    std::array<uint64_t, 4> pass_samples{};
+    double cost_sum = 0;
+    static PassCounters read(const RenderContext &ctx, const AdaptiveScheduler &s) {
+        PassCounters c;
+        c.film_samples = ctx.film_samples.load();
+        for (int q = 0; q < 4; ++q) c.pass_samples[size_t(q)] = s.quadrants_[size_t(q)]->pass_samples.load();
+        c.cost_sum = s.cost_sum_.load();
+        c.cost_samples = s.cost_samples_.load();
+        c.samples = ctx.totals.samples;
+        c.rays = ctx.totals.rays;
+        return c;
+    }
+};
+
+void AdaptiveScheduler::exchange_pass(RenderContext &ctx, const PassCounters &before) {
+    // Every worker has joined: the counters hold this rank's pass. Integer counts travel as
+    // doubles (exact below 2^53).
+    if (adaptive_)
+        exchange_tile_sums();
+    std::array<double, 12> v{};
+    v[0] = double(ctx.film_samples.load() - before.film_samples);
+    for (int q = 0; q < 4; ++q)
+        v[size_t(1 + q)] =
+            double(quadrants_[size_t(q)]->pass_samples.load() - before.pass_samples[size_t(q)]);
+    v[5] = cost_sum_.load() - before.cost_sum;
+    v[6] = double(cost_samples_.load() - before.cost_samples);
+    v[7] = ctx.stop_cancel.load() ? 1 : 0;
+    v[8] = ctx.stop_time.load() ? 1 : 0;
+    const uint64_t my_samples = ctx.totals.samples - before.samples;
+    const uint64_t my_rays = ctx.totals.rays - before.rays;
+    v[9] = double(my_samples);
+    v[10] = double(my_rays);
+    group_->sum(v);
+    ctx.film_samples.store(before.film_samples + uint64_t(v[0]));
+    for (int q = 0; q < 4; ++q)
+        quadrants_[size_t(q)]->pass_samples.store(before.pass_samples[size_t(q)] +
+                                                  uint64_t(v[size_t(1 + q)]));
+    cost_sum_.store(before.cost_sum + v[5]);
+    cost_samples_.store(before.cost_samples + uint64_t(v[6]));
+    if (v[7] > 0)
+        ctx.stop_cancel = ctx.stop = true;
+    if (v[8] > 0)
+        ctx.stop_time = ctx.stop = true;
+    if (ctx.progress)
+        ctx.progress->add(uint64_t(v[9]) - my_samples, uint64_t(v[10]) - my_rays);
+}
+
 void AdaptiveScheduler::run_pass(uint64_t pass, RenderContext &ctx) {
-    const size_t n_tiles = tiles_.size();
+    // This rank's tiles (every tile in a single process), in Morton order.
+    const size_t n_tiles = owned_tiles_.size();
     ctx.next_work.store(0);
     auto worker = [&](uint32_t) {
         WorkerState ws;
         while (!ctx.should_stop()) {
-            uint64_t t = ctx.next_work.fetch_add(1, std::memory_order_relaxed);
-            if (t >= n_tiles)
+            uint64_t i = ctx.next_work.fetch_add(1, std::memory_order_relaxed);
+            if (i >= n_tiles)
                 break;
-            process_tile(size_t(t), uint32_t(pass), ctx, ws);
+            process_tile(size_t(owned_tiles_[size_t(i)]), uint32_t(pass), ctx, ws);
         }
         ws.merge_into(ctx);
     };
@@ -1337,7 +1461,10 @@ void AdaptiveScheduler::run_deterministic(RenderContext &ctx, WorkerState &main_
             break;
         if (pass >= ctx.pass_end)
             ++stats.catch_up_passes;
+        const PassCounters before = PassCounters::read(ctx, *this);
         run_pass(pass, ctx);
+        if (group_)
+            exchange_pass(ctx, before);
         if (ctx.stop_cancel.load() || ctx.stop_time.load())
             break;
         ++stats.passes;
@@ -1350,8 +1477,9 @@ void AdaptiveScheduler::run_deterministic(RenderContext &ctx, WorkerState &main_
 void AdaptiveScheduler::run_passes(RenderContext &ctx, AdaptiveStats &stats) {
     const uint64_t pixels = uint64_t(film_.width()) * film_.height();
     const uint64_t p0 = ctx.first_pass, n_passes = ctx.pass_end;
-    ctx.progress = std::make_unique<AdaptiveProgress>(options_.progress, pixels,
-                                                      film_.total_samples(), options_);
+    ctx.film_total = owned_film_samples();
+    ctx.progress = std::make_unique<AdaptiveProgress>(options_.progress, pixels, ctx.film_total,
+                                                      options_);
     reset_for_render(ctx, p0);
     WorkerState main_ws;
     if (adaptive_) {
@@ -1384,7 +1512,7 @@ void AdaptiveScheduler::run_passes(RenderContext &ctx, AdaptiveStats &stats) {
     ctx.catch_up = adaptive_ && !refine_ && n_passes > 0 &&
                    pass_target(options_, n_passes) == ctx.last_target;
 
-    if (!options_.deterministic)
+    if (!options_.deterministic && !group_)
         run_barrier_free(ctx, main_ws, stats);
     else
         run_deterministic(ctx, main_ws, stats);
@@ -1392,11 +1520,13 @@ void AdaptiveScheduler::run_passes(RenderContext &ctx, AdaptiveStats &stats) {
     ctx.progress->finish();
     ctx.arena = nullptr;
     // tile_done_[t] is the next pass tile t needs (all workers have joined).
-    uint32_t resume = std::numeric_limits<uint32_t>::max();
-    for (size_t t = 0; t < tiles_.size(); ++t)
-        resume = std::min(resume, tile_done_[t].load(std::memory_order_acquire));
+    uint64_t resume = std::numeric_limits<uint32_t>::max();
+    for (uint32_t t : owned_tiles_)
+        resume = std::min<uint64_t>(resume, tile_done_[t].load(std::memory_order_acquire));
+    if (group_)
+        group_->min(std::span<uint64_t>(&resume, 1));
     if (!tiles_.empty())
-        stats.resume_pass = resume;
+        stats.resume_pass = uint32_t(resume);
 }
 
 void AdaptiveScheduler::collect_stats(const RenderContext &ctx, AdaptiveStats &stats) const {
@@ -1431,16 +1561,34 @@ void AdaptiveScheduler::collect_stats(const RenderContext &ctx, AdaptiveStats &s
     stats.final_error_target = refine_ ? target_at(ctx.level) : options_.error_target;
 }
 
+uint64_t AdaptiveScheduler::owned_film_samples() const {
+    uint64_t n = 0;
+    for (uint32_t t : owned_tiles_) {
+        const Tile &tile = tiles_[t];
+        for (uint32_t y = tile.y0; y < tile.y1; ++y)
+            for (uint32_t x = tile.x0; x < tile.x1; ++x) n += film_.sample_count(x, y);
+    }
+    return group_ ? uint64_t(group_sum(double(n))) : n;
+}
+
 void AdaptiveScheduler::fill_spp_histogram(AdaptiveStats &stats) const {
-    stats.spp_histogram.assign(1, 0);
-    for (uint32_t y = 0; y < film_.height(); ++y)
-        for (uint32_t x = 0; x < film_.width(); ++x) {
-            uint32_t c = film_.sample_count(x, y);
-            size_t k = c == 0 ? 0 : size_t(std::bit_width(c));
-            if (stats.spp_histogram.size() <= k)
-                stats.spp_histogram.resize(k + 1, 0);
-            ++stats.spp_histogram[k];
-        }
+    // Bins for every 32-bit count (bin 0: no sample; bin k: [2^(k-1), 2^k)), this rank's tiles,
+    // summed over the ranks; trailing empty bins dropped.
+    std::vector<double> bins(33, 0.0);
+    for (uint32_t t : owned_tiles_) {
+        const Tile &tile = tiles_[t];
+        for (uint32_t y = tile.y0; y < tile.y1; ++y)
+            for (uint32_t x = tile.x0; x < tile.x1; ++x) {
+                const uint32_t c = film_.sample_count(x, y);
+                bins[c == 0 ? 0 : size_t(std::bit_width(c))] += 1;
+            }
+    }
+    if (group_)
+        group_->sum(bins);
+    size_t n = bins.size();
+    while (n > 1 && bins[n - 1] == 0) --n;
+    stats.spp_histogram.assign(n, 0);
+    for (size_t k = 0; k < n; ++k) stats.spp_histogram[k] = uint64_t(bins[k]);
 }
 
 AdaptiveStats AdaptiveScheduler::render(const std::atomic<bool> *cancel) {
@@ -1452,6 +1600,7 @@ AdaptiveStats AdaptiveScheduler::render(const std::atomic<bool> *cancel) {
                                    std::chrono::duration<double>(ctx.timed ? options_.time_s : 0));
     AdaptiveStats stats;
     stats.threads = threads_;
+    const double comm_before = group_ ? group_->comm_seconds() : 0.0;
     const uint64_t pixels = uint64_t(film_.width()) * film_.height();
     const uint64_t nan_before = film_.nan_count();
 
@@ -1466,7 +1615,24 @@ AdaptiveStats AdaptiveScheduler::render(const std::atomic<bool> *cancel) {
 
     collect_stats(ctx, stats);
     stats.nan_samples = film_.nan_count() - nan_before;
-    if (relmse_) {
+    stats.rank_samples = stats.samples;
+    if (group_) {
+        // The whole image's counts on every rank.
+        std::array<double, 7> v{double(stats.samples),        double(stats.rays),
+                                double(stats.shadow_rays_avoided), double(stats.nan_samples),
+                                double(stats.tiles_rendered), double(stats.tiles_skipped),
+                                double(stats.pixels_skipped)};
+        group_->sum(v);
+        stats.samples = uint64_t(v[0]);
+        stats.rays = uint64_t(v[1]);
+        stats.shadow_rays_avoided = uint64_t(v[2]);
+        stats.nan_samples = uint64_t(v[3]);
+        stats.tiles_rendered = uint64_t(v[4]);
+        stats.tiles_skipped = uint64_t(v[5]);
+        stats.pixels_skipped = uint64_t(v[6]);
+        stats.ranks = ranks_;
+    }
+    if (relmse_ || group_) {
         // The film as it is now (the snapshot may lag a cancelled tile's last samples).
         init_error_snapshot();
         stats.error_estimate = published_image_error();
@@ -1478,6 +1644,8 @@ AdaptiveStats AdaptiveScheduler::render(const std::atomic<bool> *cancel) {
     }
     fill_spp_histogram(stats);
     stats.wall_s = seconds_since(ctx.start);
+    if (group_)
+        stats.comm_s = group_->comm_seconds() - comm_before;
     stats.lock_wait_fraction =
         stats.wall_s > 0 ? stats.lock_wait_s / (stats.wall_s * double(threads_)) : 0.0;
     return stats;

@@ -105,6 +105,21 @@
 // 1 / refine_track times its share of samples). The sums
 // are read from the published tile atomics at every rebuild (O(tiles); in the deterministic
 // mode they are fixed between passes, so the result stays bit-identical).
+//
+// Distributed rendering (AdaptiveOptions::group; see docs/ARCHITECTURE.md, "Distributed
+// rendering"). With a RankGroup of N ranks this scheduler is one rank: it renders only the
+// tiles tile_owner() deals it (every N-th tile along the Morton curve) into its own film, and
+// every pass ends at a barrier on every rank: its threads finish the rank's tiles of the pass
+// (barrier-free among themselves, as in the deterministic mode), then one all-gather hands every
+// rank the per-tile error sums of every tile (and one sum the counters the guards, the cost
+// weighting and the stop decisions need), and each rank rebuilds the same four trees from the
+// same numbers. The trees, the open regions, the refinement level and the stopping decision
+// are therefore the same on every rank, and with `deterministic` the films' pixels are, tile
+// for tile, those of a single-process render (a sum with zeros is exact; the integer counts are
+// exact in doubles): rank 0 gathers them into the whole image (gather_film). A rank whose time
+// is up, or whose cancel flag is set, stops taking tiles; its flag ends the render on every
+// rank at the same pass end. Without `deterministic` the per-tile costs still weight the
+// allocation (measured on each rank; the image mean summed over the ranks).
 #pragma once
 
 #include <array>
@@ -122,6 +137,7 @@
 #include "sampling/region_tree.h"
 #include "sampling/sample_source.h"
 #include "scheduler/progress.h"
+#include "scheduler/rank_group.h"
 #include "scheduler/tiles.h"
 
 namespace tessera::sched {
@@ -213,6 +229,11 @@ struct AdaptiveOptions {
     /// Called by the rendering thread after every tile visit (rendered or skipped), while it
     /// still owns the tile's pixels. May be empty. Must be thread-safe.
     std::function<void(const TileVisit &)> visit_hook;
+    /// Distributed render (see the file comment): this scheduler is rank group->rank() of
+    /// group->size() and renders only its tiles; the passes end at a collective on every rank.
+    /// Every rank must render with the same options (apart from threads and progress) and a
+    /// film in the same state. Null: the whole image in this process.
+    RankGroup *group = nullptr;
 };
 
 /// What a render() did.
@@ -280,6 +301,13 @@ struct AdaptiveStats {
     std::vector<uint64_t> spp_histogram;
     double render_s = 0;   ///< thread-seconds spent rendering tiles, summed over threads
     double rebuild_s = 0;  ///< thread-seconds spent rebuilding trees (incl. error copies)
+    /// Distributed render: the ranks of the group (1 otherwise). samples, rays,
+    /// shadow_rays_avoided, nan_samples, tiles_* and pixels_skipped are then summed over the
+    /// ranks; rank_samples is this rank's own share and comm_s the wall seconds this rank spent
+    /// in the collectives (waiting for the others included).
+    uint32_t ranks = 1;
+    uint64_t rank_samples = 0;
+    double comm_s = 0;
     /// One readable line, e.g. for the CLI's summary.
     std::string describe() const;
 };
@@ -353,6 +381,7 @@ class AdaptiveScheduler {
     struct RenderContext;
     struct WorkerState;
     struct TileTally;
+    struct PassCounters;
 
     /// Passes of the schedule: pass_count, doubled when refining to max_spp, cut at max_passes.
     uint64_t scheduled_passes() const;
@@ -405,6 +434,19 @@ class AdaptiveScheduler {
     /// `pass_end`: after a pass (its samples decide which quadrants were idle).
     void rebuild_all(RenderContext &ctx, WorkerState &ws, bool pass_end);
     void init_error_snapshot();
+    /// Distributed: every rank's tile sums for all tiles (RankGroup::all_gather of each rank's
+    /// own), written into the tile atomics of the tiles this rank does not own.
+    void exchange_tile_sums();
+    /// Distributed, at the end of a pass: the tile sums, then the summed counters (film and
+    /// quadrant samples, costs, progress) and the stop flags (any rank's stop ends the render).
+    void exchange_pass(RenderContext &ctx, const PassCounters &before);
+    /// The sum over the ranks of `v` (v itself in a single process).
+    double group_sum(double v) const;
+    /// Samples in the film over this rank's tiles, summed over the ranks (the whole film's).
+    uint64_t owned_film_samples() const;
+    RankGroup *group_ = nullptr;
+    uint32_t ranks_ = 1, rank_ = 0;
+    std::vector<uint32_t> owned_tiles_;  // Morton indices of the tiles this rank renders
 
     const SampleSource &source_;
     sampling::Film &film_;
