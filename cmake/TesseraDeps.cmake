@@ -33,3 +33,22 @@ if(TESSERA_BUILD_BENCHMARKS)
   # benchmark runs Tessera's reader alone.
   find_package(assimp QUIET)
 endif()
+
+# Distributed rendering on MPI (renderer/app/mpi_group.h): AUTO builds it in when Debian's
+# libopenmpi-dev is present (scripts/setup.sh installs it), ON requires it, OFF leaves it out.
+set(TESSERA_MPI AUTO CACHE STRING "Distributed rendering on MPI: AUTO, ON or OFF")
+set_property(CACHE TESSERA_MPI PROPERTY STRINGS AUTO ON OFF)
+set(TESSERA_WITH_MPI OFF)
+if(NOT TESSERA_MPI STREQUAL "OFF")
+  # The C API from C++ (the project enables no C compiler); without the deprecated C++ bindings.
+  set(MPI_CXX_SKIP_MPICXX ON)
+  find_package(MPI COMPONENTS CXX QUIET)
+  if(MPI_CXX_FOUND)
+    set(TESSERA_WITH_MPI ON)
+    message(STATUS "Distributed rendering: MPI ${MPI_CXX_VERSION} (${MPI_CXX_LIBRARIES})")
+  elseif(TESSERA_MPI STREQUAL "ON")
+    message(FATAL_ERROR "TESSERA_MPI=ON but no MPI was found (apt-get install libopenmpi-dev)")
+  else()
+    message(STATUS "Distributed rendering: no MPI found, built without it")
+  endif()
+endif()

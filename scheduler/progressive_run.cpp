@@ -35,6 +35,9 @@ void accumulate(AdaptiveStats &total, const AdaptiveStats &s) {
     total.tree_target = s.tree_target;
     total.spp_histogram = s.spp_histogram;
     total.render_s += s.render_s;
+    total.ranks = s.ranks;
+    total.rank_samples += s.rank_samples;
+    total.comm_s += s.comm_s;
     total.rebuild_s += s.rebuild_s;
     total.lock_wait_fraction = total.wall_s > 0 && total.threads
                                    ? total.lock_wait_s / (total.wall_s * double(total.threads))

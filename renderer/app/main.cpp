@@ -9,6 +9,8 @@
 
 #include "renderer/app/converge.h"
 #include "renderer/app/diff.h"
+#include "renderer/app/mpi_group.h"
+#include "renderer/util/error.h"
 #include "renderer/util/image_io.h"
 #include "renderer/app/render.h"
 #include "renderer/scene/specialize.h"
@@ -236,7 +238,8 @@ int run_render_command(RenderCli &c) {
 int main(int argc, char **argv) {
     CLI::App app{"Tessera: a progressive Monte Carlo path tracer for pbrt-v4 scenes"};
     app.require_subcommand(1);
-    app.set_version_flag("--version", std::string("tessera ") + TESSERA_VERSION);
+    app.set_version_flag("--version", std::string("tessera ") + TESSERA_VERSION + "\n" +
+                                          tessera::mpi_build_info());
 
     RenderCli render;
     add_render_command(app, render);
@@ -260,6 +263,36 @@ int main(int argc, char **argv) {
         return rc == 0 ? 0 : 2;
     }
 
+    // Under mpirun: this process is one rank of the job (renderer/app/mpi_group.h). A rank that
+    // fails ends the whole job (the others may wait in a collective): it says what failed, then
+    // MPI_Abort, and mpirun names the rank.
+    std::unique_ptr<tessera::MpiJob> job;
+    auto fail = [&](int rc) {
+        if (job && job->size() > 1) job->abort(rc);
+        return rc;
+    };
+    try {
+        job = tessera::MpiJob::start(argc, argv);
+    } catch (const std::exception &e) {
+        std::fprintf(stderr, "tessera: MPI: %s\n", e.what());
+        return 2;
+    }
+    if (job && job->size() > 1) {
+        if (!*render.command) {
+            if (job->rank() == 0)
+                std::fprintf(stderr, "tessera: only `tessera render` runs on several MPI ranks "
+                                     "(converge, diff and samplers run in one process)\n");
+            return fail(2);
+        }
+        render.options.group = &job->group();
+        render.options.host = job->host();
+        if (job->rank() != 0) {
+            // Every rank reads the same scene: rank 0 alone reports.
+            render.options.quiet = true;
+            tessera::mute_warnings(true);
+        }
+    }
+
     try {
         if (*diff) return tessera::run_diff(diff_a, diff_b, std::cout, std::cerr);
         if (*samplers) {
@@ -270,18 +303,18 @@ int main(int argc, char **argv) {
         if (*render.command) return run_render_command(render);
     } catch (const tessera::SceneError &e) {
         std::fprintf(stderr, "%s\n", e.what());
-        return 2;
+        return fail(2);
     } catch (const tessera::OutputError &e) {
         std::fprintf(stderr, "tessera: cannot write output: %s\n", e.what());
-        return 1;
+        return fail(1);
     } catch (const std::bad_alloc &) {
         // The limits (renderer/util/limits.h) check the large allocations up front; this is what
         // slipped past them.
         std::fprintf(stderr, "tessera: out of memory\n");
-        return 1;
+        return fail(1);
     } catch (const std::exception &e) {
         std::fprintf(stderr, "tessera: internal error: %s\n", e.what());
-        return 1;
+        return fail(1);
     }
     return 0;
 }

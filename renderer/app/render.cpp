@@ -12,6 +12,7 @@
 #include <tuple>
 
 #include "renderer/app/checkpoint.h"
+#include "renderer/app/mpi_group.h"
 #include "renderer/util/image_io.h"
 #include "renderer/util/json_io.h"
 #include "renderer/integrators/integrators.h"
@@ -250,15 +251,24 @@ ProgressiveSetup setup_progressive(const RenderOptions &opt, const Scene &scene,
 /// Renders in chunks of --checkpoint-every seconds within --time, checkpointing after each
 /// chunk (sched::ProgressiveRun carries the pass and the refined target from chunk to chunk).
 /// Fills rep.stats and rep.passes_total; leaves in p.so the state the last chunk left.
+// Distributed: what rank 0 decides (a choice every rank must make alike; see "Distributed
+// rendering" in docs/ARCHITECTURE.md); the flag itself in one process.
+bool decided(const RenderOptions &opt, bool flag) {
+    return opt.group ? opt.group->decide(flag) : flag;
+}
+
+bool is_root(const RenderOptions &opt) { return !opt.group || opt.group->rank() == 0; }
+
 void render_chunks(const RenderOptions &opt, const SampleSource &integrator,
                    sampling::Film &film, const std::string &checkpoint, ProgressiveSetup &p,
-                   std::chrono::steady_clock::time_point t_render, RenderReport &rep) {
+                   std::chrono::steady_clock::time_point t_render, RenderReport &rep,
+                   sched::FilmGatherer *gather) {
     sched::ProgressiveRun run(integrator, film, p.so);
     SignalGuard guard;
     bool out_of_time = false;
     while (true) {
         double remaining = opt.time_s > 0 ? opt.time_s - seconds_since(t_render) : 0.0;
-        if (opt.time_s > 0 && remaining <= 0) {
+        if (decided(opt, opt.time_s > 0 && remaining <= 0)) {
             out_of_time = true;
             break;
         }
@@ -267,18 +277,23 @@ void render_chunks(const RenderOptions &opt, const SampleSource &integrator,
             chunk_s = chunk_s > 0 ? std::min(chunk_s, opt.checkpoint_every) : opt.checkpoint_every;
         sched::AdaptiveStats s = run.advance(chunk_s, &g_cancel);
         out_of_time = s.out_of_time;
-        bool chunk_timeout = s.out_of_time && opt.checkpoint_every > 0 &&
-                             !(opt.time_s > 0 && seconds_since(t_render) >= opt.time_s);
+        const bool chunk_timeout =
+            decided(opt, s.out_of_time && opt.checkpoint_every > 0 &&
+                             !(opt.time_s > 0 && seconds_since(t_render) >= opt.time_s));
         if (!chunk_timeout) break;
         p.cs.passes = uint32_t(run.start_pass());
         p.cs.elapsed_s = p.elapsed_before + seconds_since(t_render);
+        // Distributed: rank 0 holds the whole film only after the gather, and writes it alone.
+        if (gather) gather->gather();
         // A failed periodic checkpoint (disk full for a moment) must not throw away the
         // render: warn, keep rendering, try again at the next one.
-        try {
-            write_checkpoint(checkpoint, film, p.cs);
-        } catch (const std::exception &e) {
-            warn(FileLoc{checkpoint, 0},
-                 std::string("checkpoint not written: ") + e.what() + "; rendering continues");
+        if (is_root(opt)) {
+            try {
+                write_checkpoint(checkpoint, film, p.cs);
+            } catch (const std::exception &e) {
+                warn(FileLoc{checkpoint, 0}, std::string("checkpoint not written: ") + e.what() +
+                                                 "; rendering continues");
+            }
         }
         out_of_time = false;
         // A chunk that converged or could not take a sample has nothing left to do.
@@ -392,8 +407,57 @@ nlohmann::json render_stats_json(const RenderOptions &opt, const Scene &scene,
         j["code_path"] = integrator.describe();
     }
     j["version"] = TESSERA_VERSION;
+    {
+        nlohmann::json m;
+        m["built_in"] = mpi_built_in();
+        m["ranks"] = rep.ranks.empty() ? size_t(1) : rep.ranks.size();
+        if (!rep.ranks.empty()) {
+            double comm_max = 0, frac = 0;
+            nlohmann::json rows = nlohmann::json::array();
+            for (const RankRow &r : rep.ranks) {
+                rows.push_back({{"rank", r.rank},
+                                {"host", r.host},
+                                {"samples", r.samples},
+                                {"wall_s", r.wall_s},
+                                {"render_thread_s", r.render_s},
+                                {"comm_s", r.comm_s}});
+                comm_max = std::max(comm_max, r.comm_s);
+                // The largest share of a rank's render time spent in the collectives.
+                if (r.wall_s > 0) frac = std::max(frac, r.comm_s / r.wall_s);
+            }
+            m["per_rank"] = rows;
+            m["comm_s_max"] = comm_max;
+            m["comm_fraction_max"] = frac;
+        }
+        j["mpi"] = m;
+    }
     if (!rep.checkpoint_path.empty()) j["checkpoint"] = rep.checkpoint_path;
     return j;
+}
+
+// Distributed: every rank's row (samples, times) to rank 0's report.
+void gather_rank_rows(const RenderOptions &opt, RenderReport &rep, double wall_s, double comm_s) {
+    const nlohmann::json mine = {{"host", opt.host},
+                                 {"samples", rep.stats.rank_samples},
+                                 {"wall_s", wall_s},
+                                 {"render_s", rep.stats.render_s},
+                                 {"comm_s", comm_s}};
+    const std::string text = mine.dump();
+    const auto *b = reinterpret_cast<const std::byte *>(text.data());
+    std::vector<std::vector<std::byte>> pieces =
+        opt.group->gather_to_root(std::span<const std::byte>(b, text.size()));
+    for (size_t r = 0; r < pieces.size(); ++r) {
+        const nlohmann::json j = nlohmann::json::parse(
+            std::string(reinterpret_cast<const char *>(pieces[r].data()), pieces[r].size()));
+        RankRow row;
+        row.rank = uint32_t(r);
+        row.host = j.at("host").get<std::string>();
+        row.samples = j.at("samples").get<uint64_t>();
+        row.wall_s = j.at("wall_s").get<double>();
+        row.render_s = j.at("render_s").get<double>();
+        row.comm_s = j.at("comm_s").get<double>();
+        rep.ranks.push_back(row);
+    }
 }
 
 }  // namespace
@@ -405,10 +469,15 @@ RenderReport run_render(const RenderOptions &opt) {
     overrides.no_specialize |= opt.no_specialize;
     std::unique_ptr<Scene> scene = load_scene(opt.scene, overrides);
     rep.load_s = seconds_since(t0);
-    if (!opt.quiet) std::fprintf(stderr, "tessera: %s\n", scene->describe().c_str());
-    RenderOutputs out = prepare_outputs(opt, *scene, rep);
+    const bool root = is_root(opt);
+    if (!opt.quiet && root) std::fprintf(stderr, "tessera: %s\n", scene->describe().c_str());
+    // Distributed: rank 0 alone writes (and checks) the outputs.
+    RenderOutputs out = root ? prepare_outputs(opt, *scene, rep) : RenderOutputs{};
 
     if (opt.sampler.is_frame()) {
+        if (opt.group)
+            throw SceneError("--sampler:0: " + opt.sampler.name +
+                             " renders whole frames in one process; run it without mpirun");
         if (!opt.resume.empty() || !opt.checkpoint.empty() || opt.checkpoint_every > 0)
             throw SceneError("--sampler:0: " + opt.sampler.name +
                              " renders whole frames; --checkpoint, --checkpoint-every and "
@@ -422,12 +491,27 @@ RenderReport run_render(const RenderOptions &opt) {
                         film_aovs(opt, *scene),
                         keeps_prefix(opt.sampler) && render_adapts(opt, *scene));
     ProgressiveSetup p = setup_progressive(opt, *scene, film, rep);
+    p.so.group = opt.group;
+    if (!root) p.so.progress = sched::ProgressReporter::Mode::Never;
+    // Made before any sample: the film's NaN count now is the base every rank shares.
+    std::optional<sched::FilmGatherer> gather;
+    if (opt.group) gather.emplace(*opt.group, film);
 
     std::unique_ptr<SampleSource> integrator =
         make_integrator(*scene, opt.integrator.empty() ? "path" : opt.integrator,
                         opt.no_specialize);
+    // Every rank starts its clock at the same moment (the time budget is measured on each).
+    if (opt.group) opt.group->barrier();
+    const double comm_before = opt.group ? opt.group->comm_seconds() : 0.0;
     auto t_render = std::chrono::steady_clock::now();
-    render_chunks(opt, *integrator, film, out.checkpoint, p, t_render, rep);
+    render_chunks(opt, *integrator, film, out.checkpoint, p, t_render, rep,
+                  gather ? &*gather : nullptr);
+    if (opt.group) {
+        gather->gather();
+        gather_rank_rows(opt, rep, seconds_since(t_render),
+                         opt.group->comm_seconds() - comm_before);
+        if (!root) return rep;
+    }
     if (rep.stats.cancelled && !opt.quiet)
         std::fprintf(stderr, "tessera: interrupted; writing the partial image and a checkpoint\n");
 
@@ -456,6 +540,18 @@ RenderReport run_render(const RenderOptions &opt) {
                      rep.stats.describe().c_str(), out.exr.c_str(), opt.write_png ? " and " : "",
                      opt.write_png ? out.png.c_str() : "",
                      rep.checkpoint_path.empty() ? "" : " and ", rep.checkpoint_path.c_str());
+        if (!rep.ranks.empty()) {
+            double frac = 0;
+            std::string per;
+            for (const RankRow &r : rep.ranks) {
+                if (r.wall_s > 0) frac = std::max(frac, r.comm_s / r.wall_s);
+                per += (per.empty() ? "" : ", ") + std::to_string(r.samples);
+            }
+            std::fprintf(stderr,
+                         "tessera: %zu MPI ranks (samples per rank: %s); communication at most "
+                         "%.2f%% of a rank's render time\n",
+                         rep.ranks.size(), per.c_str(), 100.0 * frac);
+        }
     }
     return rep;
 }

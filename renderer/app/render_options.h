@@ -111,6 +111,20 @@ struct RenderOptions {
     /// --no-specialize[=NAME,...]: Specialization bits (renderer/scene/specialize.h) forced onto the
     /// general code path (benchmarks of what each specialisation saves).
     uint32_t no_specialize = 0;
+    /// Distributed render (main.cpp sets it under mpirun with several ranks): this process is
+    /// one rank of the group; rank 0 writes the outputs. Null: one process renders everything.
+    sched::RankGroup *group = nullptr;
+    std::string host;  ///< this rank's host name (the stats' per-rank rows)
+};
+
+/// One rank of a distributed render, in rank 0's stats.
+struct RankRow {
+    uint32_t rank = 0;
+    std::string host;
+    uint64_t samples = 0;    ///< samples this rank took
+    double wall_s = 0;       ///< wall time of its render (all chunks)
+    double render_s = 0;     ///< thread-seconds in its tiles
+    double comm_s = 0;       ///< wall seconds in the collectives (waiting for others included)
 };
 
 /// What a render produced (for the stats JSON and tests).
@@ -124,6 +138,7 @@ struct RenderReport {
     size_t film_bytes_per_pixel = 0;  ///< Film::bytes_per_pixel() of the render's film
     std::vector<std::string> aovs;    ///< names of the AOVs the film kept, canonical order
     size_t peak_rss_bytes = 0;
+    std::vector<RankRow> ranks;     ///< distributed: every rank (rank 0 only), else empty
     // Frame plugins (real-time loop):
     std::vector<double> frame_ms;   ///< wall time of every frame
     double rays_per_pixel = 0;      ///< last frame: rays traced / pixels

@@ -14,6 +14,7 @@ struct WarningLog {
     std::set<std::string> seen;
     int count = 0;
     std::string last;
+    bool muted = false;
 };
 
 WarningLog &warning_log() {
@@ -33,7 +34,13 @@ void warn(const FileLoc &loc, const std::string &msg) {
     if (!log.seen.insert(line).second) return;
     ++log.count;
     log.last = line;
-    std::fprintf(stderr, "%s\n", line.c_str());
+    if (!log.muted) std::fprintf(stderr, "%s\n", line.c_str());
+}
+
+void mute_warnings(bool muted) {
+    WarningLog &log = warning_log();
+    std::lock_guard<std::mutex> lock(log.mutex);
+    log.muted = muted;
 }
 
 int warning_count() {

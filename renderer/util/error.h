@@ -25,6 +25,9 @@ class SceneError : public std::runtime_error {
 
 /// Prints a warning "file:line: warning: msg" to stderr (thread-safe, deduplicated per message).
 void warn(const FileLoc &loc, const std::string &msg);
+/// Counts warnings without printing them (the ranks of a distributed render other than rank 0:
+/// every rank reads the same scene, and rank 0 says it once). Thread-safe.
+void mute_warnings(bool muted);
 /// Number of warnings printed so far (tests). Thread-safe.
 int warning_count();
 /// The most recent warning line printed ("file:line: warning: msg"), "" if none. Thread-safe.
