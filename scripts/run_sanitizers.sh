@@ -42,7 +42,7 @@ run_asan() {
         [[ "$("$cxx" --version 2>/dev/null)" == *clang* ]] && extra+=(-DTESSERA_FUZZ=ON)
     fi
     cmake -S "$root" -B "$asan_dir" -DCMAKE_BUILD_TYPE=Debug -DCMAKE_CXX_FLAGS_DEBUG="-g -O1" \
-        -DTESSERA_SANITIZE=ON -DTESSERA_BUILD_BENCHMARKS=OFF "${extra[@]}" || return 1
+        -DTESSERA_SANITIZE=ON -DTESSERA_BUILD_BENCHMARKS=OFF -DTESSERA_MPI=OFF "${extra[@]}" || return 1
     cmake --build "$asan_dir" -j "$jobs" || return 1
     # The sanitizer environment is set per test by tests/CMakeLists.txt; these are defaults for
     # anything run by hand from this shell.
@@ -54,7 +54,7 @@ run_asan() {
 run_tsan() {
     echo "== TSan: $tsan_dir"
     cmake -S "$root" -B "$tsan_dir" -DCMAKE_BUILD_TYPE=Debug -DCMAKE_CXX_FLAGS_DEBUG="-g -O1" \
-        -DTESSERA_TSAN=ON -DTESSERA_BUILD_BENCHMARKS=OFF || return 1
+        -DTESSERA_TSAN=ON -DTESSERA_BUILD_BENCHMARKS=OFF -DTESSERA_MPI=OFF || return 1
     # Only the scheduler tests (label tsan, one per tests/scheduler/test_*.cpp) are built.
     local targets=()
     for f in "$root"/tests/scheduler/test_*.cpp; do targets+=("$(basename "$f" .cpp)"); done

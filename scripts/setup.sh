@@ -33,6 +33,8 @@ packages=(
   libembree-dev libtbb-dev
   libopenimageio-dev openimageio-tools libopenexr-dev libopencolorio-dev
   libtinyobjloader-dev nlohmann-json3-dev libcli11-dev zlib1g-dev
+  # Distributed rendering (`mpirun -np N tessera render`): CMake builds MPI in when it finds it.
+  libopenmpi-dev openmpi-bin
 )
 # ... and what the tests, the benchmarks, the reports and the sanitizer/fuzz builds add.
 if [[ "$mode" != "render" ]]; then

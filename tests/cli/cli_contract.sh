@@ -196,6 +196,23 @@ version)
     expect_rc 0
     grep -Eq '^tessera [0-9]+\.[0-9]+' stdout.txt || fail "--version does not print the version"
     ;;
+mpi_launch)
+    # --version says whether MPI is built in. A build without it, launched as a rank of a job
+    # of several (the launcher's environment), refuses instead of rendering the whole image on
+    # every rank.
+    run --version
+    expect_rc 0
+    grep -Eq '^MPI: ' stdout.txt || fail "--version does not say whether MPI is built in"
+    if grep -q 'not built in' stdout.txt; then
+        write_good_scene scene.pbrt
+        OMPI_COMM_WORLD_SIZE=2 timeout 60 "$tessera" render scene.pbrt -o out.exr -q \
+            >stdout.txt 2>stderr.txt
+        rc=$?
+        expect_rc 2
+        expect_stderr_line "built without MPI"
+        expect_no_output out
+    fi
+    ;;
 unwritable_output)
     write_good_scene scene.pbrt
     # A render at this size would take minutes: the check must come before it.
