@@ -504,6 +504,8 @@ AdaptiveScheduler::AdaptiveScheduler(const SampleSource &source, sampling::Film 
     for (size_t t = 0; t < tiles_.size(); ++t)
         if (tile_owner(t, ranks_) == rank_)
             owned_tiles_.push_back(uint32_t(t));
+    if (group_)
+        tile_changed_.assign(tiles_.size(), 0);
 }
 
 AdaptiveScheduler::~AdaptiveScheduler() = default;
@@ -580,20 +582,20 @@ void AdaptiveScheduler::init_error_snapshot() {
 }
 
 namespace {
-// Values per tile in the exchange: error sum and unknown count, and with the relMSE metric
-// the sums of a_p, sqrt(a_p c_p) and rho_p.
+// Values per tile in the exchange (after its index): error sum and unknown count, and with the
+// relMSE metric the sums of a_p, sqrt(a_p c_p) and rho_p.
 constexpr size_t kDammertzTileValues = 2, kRelMseTileValues = 5;
 }  // namespace
 
-void AdaptiveScheduler::exchange_tile_sums() {
-    const size_t k = relmse_ ? kRelMseTileValues : kDammertzTileValues;
-    const size_t n_tiles = tiles_.size();
-    std::vector<size_t> counts(ranks_);
-    for (uint32_t r = 0; r < ranks_; ++r)
-        counts[r] = k * (r < n_tiles ? (n_tiles - r + ranks_ - 1) / ranks_ : 0);
-    std::vector<double> mine;
-    mine.reserve(k * owned_tiles_.size());
+void AdaptiveScheduler::pack_changed_tiles(std::vector<double> &mine) {
+    // Only the tiles whose sums changed since the last exchange (a tile skipped in a pass keeps
+    // its sums): late adaptive passes, where most tiles are complete, send little.
+    mine.clear();
     for (uint32_t t : owned_tiles_) {
+        if (!tile_changed_[t])
+            continue;
+        tile_changed_[t] = 0;
+        mine.push_back(double(t));
         mine.push_back(tile_error_sum_[t].load(std::memory_order_relaxed));
         mine.push_back(double(tile_unknown_[t].load(std::memory_order_relaxed)));
         if (relmse_) {
@@ -602,21 +604,38 @@ void AdaptiveScheduler::exchange_tile_sums() {
             mine.push_back(tile_rho_sum_[t].load(std::memory_order_relaxed));
         }
     }
-    std::vector<double> all(k * n_tiles);
+}
+
+void AdaptiveScheduler::exchange_tile_sums(const std::vector<double> &mine,
+                                           const std::vector<size_t> &counts) {
+    const size_t k = 1 + (relmse_ ? kRelMseTileValues : kDammertzTileValues);
+    size_t total = 0;
+    for (size_t c : counts) total += c;
+    std::vector<double> all(total);
     group_->all_gather(mine, counts, all);
-    size_t i = 0;
-    for (uint32_t r = 0; r < ranks_; ++r)
-        for (size_t t = r; t < n_tiles; t += ranks_, i += k) {
-            if (r == rank_)
-                continue;
-            tile_error_sum_[t].store(all[i], std::memory_order_relaxed);
-            tile_unknown_[t].store(uint32_t(all[i + 1]), std::memory_order_relaxed);
-            if (relmse_) {
-                tile_a_sum_[t].store(all[i + 2], std::memory_order_relaxed);
-                tile_sqrt_a_sum_[t].store(all[i + 3], std::memory_order_relaxed);
-                tile_rho_sum_[t].store(all[i + 4], std::memory_order_relaxed);
-            }
+    for (size_t i = 0; i + k <= all.size(); i += k) {
+        const size_t t = size_t(all[i]);
+        if (t >= tiles_.size() || tile_owner(t, ranks_) == rank_)
+            continue;
+        tile_error_sum_[t].store(all[i + 1], std::memory_order_relaxed);
+        tile_unknown_[t].store(uint32_t(all[i + 2]), std::memory_order_relaxed);
+        if (relmse_) {
+            tile_a_sum_[t].store(all[i + 3], std::memory_order_relaxed);
+            tile_sqrt_a_sum_[t].store(all[i + 4], std::memory_order_relaxed);
+            tile_rho_sum_[t].store(all[i + 5], std::memory_order_relaxed);
         }
+    }
+}
+
+void AdaptiveScheduler::exchange_tile_sums() {
+    std::vector<double> mine;
+    pack_changed_tiles(mine);
+    std::vector<double> n(ranks_, 0.0);
+    n[rank_] = double(mine.size());
+    group_->sum(n);
+    std::vector<size_t> counts(ranks_);
+    for (uint32_t r = 0; r < ranks_; ++r) counts[r] = size_t(n[r]);
+    exchange_tile_sums(mine, counts);
 }
 
 double AdaptiveScheduler::group_sum(double v) const {
@@ -682,6 +701,8 @@ void AdaptiveScheduler::publish_tile_error(size_t t) {
         }
     tile_error_sum_[t].store(sum, std::memory_order_relaxed);
     tile_unknown_[t].store(unknown, std::memory_order_relaxed);
+    if (group_)
+        tile_changed_[t] = 1;  // written by the tile's owner, read after the workers join
     if (relmse_) {
         // rho = sqrt(m a) was summed with m / c: undo the cost.
         rho_sum *= std::sqrt(c);
@@ -1369,9 +1390,12 @@ struct AdaptiveScheduler::PassCounters {
 void AdaptiveScheduler::exchange_pass(RenderContext &ctx, const PassCounters &before) {
     // Every worker has joined: the counters hold this rank's pass. Integer counts travel as
     // doubles (exact below 2^53).
+    // One sum of the counters (and of each rank's payload size), then the changed tiles' sums.
+    std::vector<double> mine;
     if (adaptive_)
-        exchange_tile_sums();
-    std::array<double, 12> v{};
+        pack_changed_tiles(mine);
+    std::vector<double> v(11 + ranks_, 0.0);
+    v[11 + rank_] = double(mine.size());
     v[0] = double(ctx.film_samples.load() - before.film_samples);
     for (int q = 0; q < 4; ++q)
         v[size_t(1 + q)] =
@@ -1397,6 +1421,11 @@ void AdaptiveScheduler::exchange_pass(RenderContext &ctx, const PassCounters &be
         ctx.stop_time = ctx.stop = true;
     if (ctx.progress)
         ctx.progress->add(uint64_t(v[9]) - my_samples, uint64_t(v[10]) - my_rays);
+    if (adaptive_) {
+        std::vector<size_t> counts(ranks_);
+        for (uint32_t r = 0; r < ranks_; ++r) counts[r] = size_t(v[11 + r]);
+        exchange_tile_sums(mine, counts);
+    }
 }
 
 void AdaptiveScheduler::run_pass(uint64_t pass, RenderContext &ctx) {

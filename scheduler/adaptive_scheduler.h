@@ -434,9 +434,15 @@ class AdaptiveScheduler {
     /// `pass_end`: after a pass (its samples decide which quadrants were idle).
     void rebuild_all(RenderContext &ctx, WorkerState &ws, bool pass_end);
     void init_error_snapshot();
-    /// Distributed: every rank's tile sums for all tiles (RankGroup::all_gather of each rank's
-    /// own), written into the tile atomics of the tiles this rank does not own.
+    /// Distributed: the sums of every tile that changed on some rank since the last exchange
+    /// (RankGroup::all_gather of each rank's changed tiles), written into the tile atomics of
+    /// the tiles this rank does not own; the payload sizes first (one small sum).
     void exchange_tile_sums();
+    /// The same with the payload already packed and its per-rank sizes known.
+    void exchange_tile_sums(const std::vector<double> &mine, const std::vector<size_t> &counts);
+    /// This rank's changed tiles as (index, sums...) records; clears their marks.
+    void pack_changed_tiles(std::vector<double> &mine);
+    std::vector<uint8_t> tile_changed_;  // distributed: tile sums published since the exchange
     /// Distributed, at the end of a pass: the tile sums, then the summed counters (film and
     /// quadrant samples, costs, progress) and the stop flags (any rank's stop ends the render).
     void exchange_pass(RenderContext &ctx, const PassCounters &before);
