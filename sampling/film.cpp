@@ -196,11 +196,6 @@ size_t Film::packed_pixel_bytes() const {
 
 namespace {
 
-template <class T> void put(std::vector<std::byte> &out, const T &v) {
-    const auto *b = reinterpret_cast<const std::byte *>(&v);
-    out.insert(out.end(), b, b + sizeof(T));
-}
-
 template <class T> void take(const std::byte *&in, T &v) {
     std::memcpy(&v, in, sizeof(T));
     in += sizeof(T);
@@ -209,13 +204,19 @@ template <class T> void take(const std::byte *&in, T &v) {
 }  // namespace
 
 void Film::pack_pixels(std::span<const uint32_t> indices, std::vector<std::byte> &out) const {
-    out.reserve(out.size() + indices.size() * packed_pixel_bytes());
+    const size_t stride = packed_pixel_bytes(), base = out.size();
+    out.resize(base + indices.size() * stride);
+    std::byte *p = out.data() + base;
+    auto put = [&p](const auto &v) {
+        std::memcpy(p, &v, sizeof v);
+        p += sizeof v;
+    };
     for (uint32_t i : indices) {
-        put(out, pixels_[i]);
-        if (!aov_.albedo.empty()) put(out, aov_.albedo[i]);
-        if (!aov_.normal.empty()) put(out, aov_.normal[i]);
-        if (!aov_.depth.empty()) put(out, aov_.depth[i]);
-        if (!prefix_.empty()) put(out, prefix_[i]);
+        put(pixels_[i]);
+        if (!aov_.albedo.empty()) put(aov_.albedo[i]);
+        if (!aov_.normal.empty()) put(aov_.normal[i]);
+        if (!aov_.depth.empty()) put(aov_.depth[i]);
+        if (!prefix_.empty()) put(prefix_[i]);
     }
 }
 

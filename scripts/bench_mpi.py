@@ -14,7 +14,9 @@
 2. Communication at film resolution: 1920x1080 with --hd-ranks ranks (one thread each,
    oversubscribed on this machine), the default sampler, `--spp` --hd-spp: per rank the seconds
    inside the collectives (waiting for slower ranks included) as a share of its render time,
-   the passes and the bytes each pass exchanges (per tile 5 doubles with the relMSE metric).
+   split into the per-pass exchanges and the film's gather to rank 0 at the end, the passes
+   and the bytes a pass exchanges at most (per tile its index and 5 doubles with the relMSE
+   metric; only tiles that changed travel).
 3. The figures the README's scaling model uses: per-pass collective time and payload.
 """
 import argparse
@@ -62,7 +64,7 @@ def main():
     ap.add_argument("--spp", type=int, default=64)
     ap.add_argument("--resolution", default="320x240")
     ap.add_argument("--scenes", nargs="*")
-    ap.add_argument("--hd-spp", type=int, default=16)
+    ap.add_argument("--hd-spp", type=int, default=64)
     ap.add_argument("--hd-ranks", type=int, default=4)
     ap.add_argument("-o", "--out", default="bench-mpi")
     a = ap.parse_args()
@@ -110,16 +112,18 @@ def main():
          os.path.join(a.out, "hd.exr"), "--stats", j, "-q", "--no-png"])
     s = stats(j)
     tiles = (1920 // 8) * (1080 // 8 + (1 if 1080 % 8 else 0))
-    payload = tiles * 5 * 8
-    print(f"{'rank':>5} {'samples':>11} {'wall s':>8} {'comm s':>8} {'share':>7}")
+    payload = tiles * 6 * 8
+    print(f"{'rank':>5} {'samples':>11} {'wall s':>8} {'comm s':>8} {'share':>7} "
+          f"{'of it: passes s':>16} {'share':>7} {'film gather s':>14}")
     for r in s["mpi"]["per_rank"]:
         print(f"{r['rank']:5d} {r['samples']:11d} {r['wall_s']:8.2f} {r['comm_s']:8.3f} "
-              f"{100 * r['comm_s'] / r['wall_s']:6.2f}%")
+              f"{100 * r['comm_s'] / r['wall_s']:6.2f}% {r['pass_comm_s']:16.3f} "
+              f"{100 * r['pass_comm_s'] / r['wall_s']:6.2f}% {r['comm_s'] - r['pass_comm_s']:14.3f}")
     passes = s["passes"]
     print(f"passes {passes}, per pass each rank receives {payload / 1e6:.2f} MB of tile sums "
-          f"({tiles} tiles x 5 doubles); largest communication share "
+          f"({tiles} tiles x 6 doubles) at most; largest communication share "
           f"{100 * s['mpi']['comm_fraction_max']:.2f}% (target < 2%)")
-    comm_min = min(r["comm_s"] for r in s["mpi"]["per_rank"])
+    comm_min = min(r["pass_comm_s"] for r in s["mpi"]["per_rank"])
     print(f"3. scaling model input: per-pass collective time on the least-waiting rank "
           f"{1e3 * comm_min / max(1, passes):.2f} ms ({n} ranks, shared memory)")
 

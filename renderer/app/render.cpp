@@ -420,7 +420,8 @@ nlohmann::json render_stats_json(const RenderOptions &opt, const Scene &scene,
                                 {"samples", r.samples},
                                 {"wall_s", r.wall_s},
                                 {"render_thread_s", r.render_s},
-                                {"comm_s", r.comm_s}});
+                                {"comm_s", r.comm_s},
+                                {"pass_comm_s", r.pass_comm_s}});
                 comm_max = std::max(comm_max, r.comm_s);
                 // The largest share of a rank's render time spent in the collectives.
                 if (r.wall_s > 0) frac = std::max(frac, r.comm_s / r.wall_s);
@@ -441,7 +442,8 @@ void gather_rank_rows(const RenderOptions &opt, RenderReport &rep, double wall_s
                                  {"samples", rep.stats.rank_samples},
                                  {"wall_s", wall_s},
                                  {"render_s", rep.stats.render_s},
-                                 {"comm_s", comm_s}};
+                                 {"comm_s", comm_s},
+                                 {"pass_comm_s", rep.stats.comm_s}};
     const std::string text = mine.dump();
     const auto *b = reinterpret_cast<const std::byte *>(text.data());
     std::vector<std::vector<std::byte>> pieces =
@@ -456,6 +458,7 @@ void gather_rank_rows(const RenderOptions &opt, RenderReport &rep, double wall_s
         row.wall_s = j.at("wall_s").get<double>();
         row.render_s = j.at("render_s").get<double>();
         row.comm_s = j.at("comm_s").get<double>();
+        row.pass_comm_s = j.at("pass_comm_s").get<double>();
         rep.ranks.push_back(row);
     }
 }

@@ -125,6 +125,9 @@ struct RankRow {
     double wall_s = 0;       ///< wall time of its render (all chunks)
     double render_s = 0;     ///< thread-seconds in its tiles
     double comm_s = 0;       ///< wall seconds in the collectives (waiting for others included)
+    /// Of comm_s, the seconds in the scheduler's per-pass exchanges (the rest: the film's
+    /// gathers to rank 0 for checkpoints and the image, and the chunk decisions).
+    double pass_comm_s = 0;
 };
 
 /// What a render produced (for the stats JSON and tests).
