@@ -1390,7 +1390,9 @@ struct AdaptiveScheduler::PassCounters {
 void AdaptiveScheduler::exchange_pass(RenderContext &ctx, const PassCounters &before) {
     // Every worker has joined: the counters hold this rank's pass. Integer counts travel as
     // doubles (exact below 2^53).
-    // One sum of the counters (and of each rank's payload size), then the changed tiles' sums.
+    // Wait for the slowest rank first (load imbalance, counted apart), then one sum of the
+    // counters (and of each rank's payload size), then the changed tiles' sums.
+    group_->arrive();
     std::vector<double> mine;
     if (adaptive_)
         pack_changed_tiles(mine);
@@ -1630,6 +1632,7 @@ AdaptiveStats AdaptiveScheduler::render(const std::atomic<bool> *cancel) {
     AdaptiveStats stats;
     stats.threads = threads_;
     const double comm_before = group_ ? group_->comm_seconds() : 0.0;
+    const double wait_before = group_ ? group_->wait_seconds() : 0.0;
     const uint64_t pixels = uint64_t(film_.width()) * film_.height();
     const uint64_t nan_before = film_.nan_count();
 
@@ -1673,8 +1676,10 @@ AdaptiveStats AdaptiveScheduler::render(const std::atomic<bool> *cancel) {
     }
     fill_spp_histogram(stats);
     stats.wall_s = seconds_since(ctx.start);
-    if (group_)
+    if (group_) {
         stats.comm_s = group_->comm_seconds() - comm_before;
+        stats.wait_s = group_->wait_seconds() - wait_before;
+    }
     stats.lock_wait_fraction =
         stats.wall_s > 0 ? stats.lock_wait_s / (stats.wall_s * double(threads_)) : 0.0;
     return stats;

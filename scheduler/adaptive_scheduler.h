@@ -303,11 +303,12 @@ struct AdaptiveStats {
     double rebuild_s = 0;  ///< thread-seconds spent rebuilding trees (incl. error copies)
     /// Distributed render: the ranks of the group (1 otherwise). samples, rays,
     /// shadow_rays_avoided, nan_samples, tiles_* and pixels_skipped are then summed over the
-    /// ranks; rank_samples is this rank's own share and comm_s the wall seconds this rank spent
-    /// in the collectives (waiting for the others included).
+    /// ranks; rank_samples is this rank's own share, comm_s the wall seconds this rank spent
+    /// in the collectives and wait_s the seconds it waited at pass ends for slower ranks
+    /// (RankGroup::arrive).
     uint32_t ranks = 1;
     uint64_t rank_samples = 0;
-    double comm_s = 0;
+    double comm_s = 0, wait_s = 0;
     /// One readable line, e.g. for the CLI's summary.
     std::string describe() const;
 };

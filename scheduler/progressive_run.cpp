@@ -38,6 +38,7 @@ void accumulate(AdaptiveStats &total, const AdaptiveStats &s) {
     total.ranks = s.ranks;
     total.rank_samples += s.rank_samples;
     total.comm_s += s.comm_s;
+    total.wait_s += s.wait_s;
     total.rebuild_s += s.rebuild_s;
     total.lock_wait_fraction = total.wall_s > 0 && total.threads
                                    ? total.lock_wait_s / (total.wall_s * double(total.threads))

@@ -121,6 +121,12 @@ void LocalRankGroup::barrier() {
     add_comm(t0);
 }
 
+void LocalRankGroup::arrive() {
+    const auto t0 = std::chrono::steady_clock::now();
+    shared_->sync.arrive_and_wait();
+    add_wait(t0);
+}
+
 std::vector<uint32_t> owned_pixels(const std::vector<Tile> &tiles, uint32_t width,
                                    uint32_t rank, uint32_t ranks) {
     std::vector<uint32_t> idx;
@@ -138,6 +144,7 @@ FilmGatherer::FilmGatherer(RankGroup &group, sampling::Film &film)
 
 void FilmGatherer::gather() {
     const uint32_t ranks = group_.size(), me = group_.rank();
+    group_.arrive();
     std::vector<std::byte> mine(sizeof(uint64_t));
     uint64_t nan_delta = 0;
     if (me != 0) {

@@ -54,19 +54,29 @@ class RankGroup {
     virtual bool decide(bool flag) = 0;
     /// Waits for every rank.
     virtual void barrier() = 0;
+    /// Waits for every rank before an exchange, counted in wait_seconds() instead of
+    /// comm_seconds(): the time a rank that finished its share early waits for the slowest
+    /// (load imbalance), apart from the exchange's own cost.
+    virtual void arrive() = 0;
 
-    /// Wall seconds this rank spent inside the collectives (waiting for slower ranks
-    /// included).
+    /// Wall seconds this rank spent inside the collectives except arrive(): the cost of the
+    /// communication itself (and of what skew remains after an arrive()).
     double comm_seconds() const { return comm_s_; }
+    /// Wall seconds this rank waited in arrive() for the other ranks.
+    double wait_seconds() const { return wait_s_; }
 
   protected:
     /// Adds the time since `t0` to comm_seconds(); implementations call it on return.
     void add_comm(std::chrono::steady_clock::time_point t0) {
         comm_s_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     }
+    /// Adds the time since `t0` to wait_seconds() (arrive()).
+    void add_wait(std::chrono::steady_clock::time_point t0) {
+        wait_s_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    }
 
   private:
-    double comm_s_ = 0;
+    double comm_s_ = 0, wait_s_ = 0;
 };
 
 /// N ranks as threads of one process (tests, and a check of the protocol without MPI): make
@@ -88,6 +98,7 @@ class LocalRankGroup final : public RankGroup {
     std::vector<std::vector<std::byte>> gather_to_root(std::span<const std::byte> mine) override;
     bool decide(bool flag) override;
     void barrier() override;
+    void arrive() override;
 
   private:
     std::shared_ptr<Shared> shared_;

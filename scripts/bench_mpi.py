@@ -13,8 +13,10 @@
    The images are checked bit-identical (idiff).
 2. Communication at film resolution: 1920x1080 with --hd-ranks ranks (one thread each,
    oversubscribed on this machine), the default sampler, `--spp` --hd-spp: per rank the seconds
-   inside the collectives (waiting for slower ranks included) as a share of its render time,
-   split into the per-pass exchanges and the film's gather to rank 0 at the end, the passes
+   inside the collectives as a share of its render time, split into the per-pass exchanges and
+   the film's gather to rank 0 at the end, and apart from it the seconds it waited for slower
+   ranks before them (a barrier first: load imbalance, and time slicing when the ranks
+   oversubscribe the cores), the passes
    and the bytes a pass exchanges at most (per tile its index and 5 doubles with the relMSE
    metric; only tiles that changed travel).
 3. The figures the README's scaling model uses: per-pass collective time and payload.
@@ -75,7 +77,7 @@ def main():
     print(f"1. efficiency: one process --threads 2 against mpirun -np 2 --threads 1, "
           f"--deterministic --spp {a.spp} at {a.resolution}, median of {a.reps}")
     print(f"{'scene':28} {'1 proc s':>9} {'2 ranks s':>10} {'eff (render)':>13} "
-          f"{'eff (command)':>14} {'comm share':>11} {'identical':>10}")
+          f"{'eff (command)':>14} {'comm share':>11} {'waiting':>8} {'identical':>10}")
     effs = []
     for k, scene in enumerate(scenes):
         name = os.path.basename(os.path.dirname(scene))
@@ -83,7 +85,7 @@ def main():
             name = os.path.basename(os.path.dirname(os.path.dirname(scene)))
         common = [scene, "--resolution", a.resolution, "--spp", str(a.spp), "--deterministic",
                   "--seed", "1", "-q", "--no-png"]
-        one_r, one_c, two_r, two_c, comm = [], [], [], [], []
+        one_r, one_c, two_r, two_c, comm, wait = [], [], [], [], [], []
         for rep in range(a.reps):
             e1, j1 = os.path.join(a.out, f"one-{k}.exr"), os.path.join(a.out, f"one-{k}.json")
             one_c.append(run([t, "render", *common, "--threads", "2", "-o", e1, "--stats", j1]))
@@ -94,13 +96,15 @@ def main():
             s2 = stats(j2)
             two_r.append(s2["wall_s"])
             comm.append(s2["mpi"]["comm_fraction_max"])
+            wait.append(s2["mpi"]["wait_fraction_max"])
         same = subprocess.run(["idiff", "-fail", "0", "-warn", "0", e1, e2],
                               stdout=subprocess.PIPE, stderr=subprocess.PIPE).returncode == 0
         m1, m2 = statistics.median(one_r), statistics.median(two_r)
         c1, c2 = statistics.median(one_c), statistics.median(two_c)
         effs.append(m1 / m2)
         print(f"{name:28} {m1:9.3f} {m2:10.3f} {m1 / m2:13.3f} {c1 / c2:14.3f} "
-              f"{100 * statistics.median(comm):10.2f}% {'yes' if same else 'NO':>10}")
+              f"{100 * statistics.median(comm):10.2f}% {100 * statistics.median(wait):7.2f}% "
+              f"{'yes' if same else 'NO':>10}")
     print(f"median efficiency (render): {statistics.median(effs):.3f} (target >= 0.9)\n")
 
     n = a.hd_ranks
@@ -114,11 +118,12 @@ def main():
     tiles = (1920 // 8) * (1080 // 8 + (1 if 1080 % 8 else 0))
     payload = tiles * 6 * 8
     print(f"{'rank':>5} {'samples':>11} {'wall s':>8} {'comm s':>8} {'share':>7} "
-          f"{'of it: passes s':>16} {'share':>7} {'film gather s':>14}")
+          f"{'of it: passes s':>16} {'film gather s':>14} {'waiting s':>10} {'share':>7}")
     for r in s["mpi"]["per_rank"]:
         print(f"{r['rank']:5d} {r['samples']:11d} {r['wall_s']:8.2f} {r['comm_s']:8.3f} "
               f"{100 * r['comm_s'] / r['wall_s']:6.2f}% {r['pass_comm_s']:16.3f} "
-              f"{100 * r['pass_comm_s'] / r['wall_s']:6.2f}% {r['comm_s'] - r['pass_comm_s']:14.3f}")
+              f"{r['comm_s'] - r['pass_comm_s']:14.3f} {r['wait_s']:10.3f} "
+              f"{100 * r['wait_s'] / r['wall_s']:6.2f}%")
     passes = s["passes"]
     print(f"passes {passes}, per pass each rank receives {payload / 1e6:.2f} MB of tile sums "
           f"({tiles} tiles x 6 doubles) at most; largest communication share "

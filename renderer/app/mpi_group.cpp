@@ -129,6 +129,11 @@ class MpiRankGroup final : public sched::RankGroup {
         check(MPI_Barrier(comm_), "MPI_Barrier");
         add_comm(t0);
     }
+    void arrive() override {
+        const auto t0 = std::chrono::steady_clock::now();
+        check(MPI_Barrier(comm_), "MPI_Barrier");
+        add_wait(t0);
+    }
 
   private:
     MPI_Comm comm_;

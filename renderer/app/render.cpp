@@ -412,7 +412,7 @@ nlohmann::json render_stats_json(const RenderOptions &opt, const Scene &scene,
         m["built_in"] = mpi_built_in();
         m["ranks"] = rep.ranks.empty() ? size_t(1) : rep.ranks.size();
         if (!rep.ranks.empty()) {
-            double comm_max = 0, frac = 0;
+            double comm_max = 0, frac = 0, wait = 0;
             nlohmann::json rows = nlohmann::json::array();
             for (const RankRow &r : rep.ranks) {
                 rows.push_back({{"rank", r.rank},
@@ -421,12 +421,15 @@ nlohmann::json render_stats_json(const RenderOptions &opt, const Scene &scene,
                                 {"wall_s", r.wall_s},
                                 {"render_thread_s", r.render_s},
                                 {"comm_s", r.comm_s},
-                                {"pass_comm_s", r.pass_comm_s}});
+                                {"pass_comm_s", r.pass_comm_s},
+                                {"wait_s", r.wait_s}});
                 comm_max = std::max(comm_max, r.comm_s);
                 // The largest share of a rank's render time spent in the collectives.
                 if (r.wall_s > 0) frac = std::max(frac, r.comm_s / r.wall_s);
+                if (r.wall_s > 0) wait = std::max(wait, r.wait_s / r.wall_s);
             }
             m["per_rank"] = rows;
+            m["wait_fraction_max"] = wait;
             m["comm_s_max"] = comm_max;
             m["comm_fraction_max"] = frac;
         }
@@ -437,13 +440,15 @@ nlohmann::json render_stats_json(const RenderOptions &opt, const Scene &scene,
 }
 
 // Distributed: every rank's row (samples, times) to rank 0's report.
-void gather_rank_rows(const RenderOptions &opt, RenderReport &rep, double wall_s, double comm_s) {
+void gather_rank_rows(const RenderOptions &opt, RenderReport &rep, double wall_s, double comm_s,
+                      double wait_s) {
     const nlohmann::json mine = {{"host", opt.host},
                                  {"samples", rep.stats.rank_samples},
                                  {"wall_s", wall_s},
                                  {"render_s", rep.stats.render_s},
                                  {"comm_s", comm_s},
-                                 {"pass_comm_s", rep.stats.comm_s}};
+                                 {"pass_comm_s", rep.stats.comm_s},
+                                 {"wait_s", wait_s}};
     const std::string text = mine.dump();
     const auto *b = reinterpret_cast<const std::byte *>(text.data());
     std::vector<std::vector<std::byte>> pieces =
@@ -459,6 +464,7 @@ void gather_rank_rows(const RenderOptions &opt, RenderReport &rep, double wall_s
         row.render_s = j.at("render_s").get<double>();
         row.comm_s = j.at("comm_s").get<double>();
         row.pass_comm_s = j.at("pass_comm_s").get<double>();
+        row.wait_s = j.at("wait_s").get<double>();
         rep.ranks.push_back(row);
     }
 }
@@ -506,13 +512,15 @@ RenderReport run_render(const RenderOptions &opt) {
     // Every rank starts its clock at the same moment (the time budget is measured on each).
     if (opt.group) opt.group->barrier();
     const double comm_before = opt.group ? opt.group->comm_seconds() : 0.0;
+    const double wait_before = opt.group ? opt.group->wait_seconds() : 0.0;
     auto t_render = std::chrono::steady_clock::now();
     render_chunks(opt, *integrator, film, out.checkpoint, p, t_render, rep,
                   gather ? &*gather : nullptr);
     if (opt.group) {
         gather->gather();
         gather_rank_rows(opt, rep, seconds_since(t_render),
-                         opt.group->comm_seconds() - comm_before);
+                         opt.group->comm_seconds() - comm_before,
+                         opt.group->wait_seconds() - wait_before);
         if (!root) return rep;
     }
     if (rep.stats.cancelled && !opt.quiet)
@@ -544,16 +552,18 @@ RenderReport run_render(const RenderOptions &opt) {
                      opt.write_png ? out.png.c_str() : "",
                      rep.checkpoint_path.empty() ? "" : " and ", rep.checkpoint_path.c_str());
         if (!rep.ranks.empty()) {
-            double frac = 0;
+            double frac = 0, wait = 0;
             std::string per;
             for (const RankRow &r : rep.ranks) {
                 if (r.wall_s > 0) frac = std::max(frac, r.comm_s / r.wall_s);
+                if (r.wall_s > 0) wait = std::max(wait, r.wait_s / r.wall_s);
                 per += (per.empty() ? "" : ", ") + std::to_string(r.samples);
             }
             std::fprintf(stderr,
                          "tessera: %zu MPI ranks (samples per rank: %s); communication at most "
-                         "%.2f%% of a rank's render time\n",
-                         rep.ranks.size(), per.c_str(), 100.0 * frac);
+                         "%.2f%% of a rank's render time, waiting for slower ranks at most "
+                         "%.2f%%\n",
+                         rep.ranks.size(), per.c_str(), 100.0 * frac, 100.0 * wait);
         }
     }
     return rep;

@@ -124,7 +124,10 @@ struct RankRow {
     uint64_t samples = 0;    ///< samples this rank took
     double wall_s = 0;       ///< wall time of its render (all chunks)
     double render_s = 0;     ///< thread-seconds in its tiles
-    double comm_s = 0;       ///< wall seconds in the collectives (waiting for others included)
+    double comm_s = 0;       ///< wall seconds in the collectives' communication
+    /// Wall seconds waiting for slower ranks before the exchanges (RankGroup::arrive: load
+    /// imbalance at pass ends and before the film's gathers), not in comm_s.
+    double wait_s = 0;
     /// Of comm_s, the seconds in the scheduler's per-pass exchanges (the rest: the film's
     /// gathers to rank 0 for checkpoints and the image, and the chunk decisions).
     double pass_comm_s = 0;
