@@ -243,7 +243,9 @@ TEST_CASE("distributed: N passes on some ranks + a resume on others == M passes 
         const AdaptiveStats all = render_single(src, o, straight, 2);
         REQUIRE(all.passes >= 3);
         const uint32_t cut = all.passes / 2;
-        for (auto [first, second] : {std::pair{2u, 3u}, std::pair{4u, 1u}, std::pair{1u, 2u}}) {
+        for (const auto &ranks : {std::pair{2u, 3u}, std::pair{4u, 1u}, std::pair{1u, 2u}}) {
+            // Plain variables: clang does not let doctest's CAPTURE lambdas see bindings.
+            const uint32_t first = ranks.first, second = ranks.second;
             CAPTURE(first);
             CAPTURE(second);
             AdaptiveOptions a = o;
