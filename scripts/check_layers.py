@@ -2,8 +2,8 @@
 """Checks that #include "..." runs one way through Tessera's layers (docs/ARCHITECTURE.md):
 
     sampling -> scheduler -> renderer/util -> renderer/input
-             -> renderer/shading | renderer/lights | renderer/camera -> renderer/scene
-             -> renderer/integrators -> renderer/app
+             -> renderer/shading | renderer/lights | renderer/camera -> renderer/media
+             -> renderer/scene -> renderer/integrators -> renderer/app
 
 A file may include its own layer and the layers before it; shading, lights and camera are
 siblings and do not include each other. Within a layer, no two files include each other's sides
@@ -22,7 +22,7 @@ RANK = {
     'sampling': 0, 'scheduler': 1,
     'renderer/util': 2, 'renderer/input': 3,
     'renderer/shading': 4, 'renderer/lights': 4, 'renderer/camera': 4,
-    'renderer/scene': 5, 'renderer/integrators': 6, 'renderer/app': 7,
+    'renderer/media': 5, 'renderer/scene': 6, 'renderer/integrators': 7, 'renderer/app': 8,
 }
 INCLUDE = re.compile(r'^\s*#\s*include\s+"([^"]+)"')
 

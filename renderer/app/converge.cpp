@@ -19,7 +19,7 @@
 
 #include "renderer/util/image_io.h"
 #include "renderer/util/json_io.h"
-#include "renderer/integrators/path_integrator.h"
+#include "renderer/integrators/integrators.h"
 #include "renderer/app/reference.h"
 #include "scheduler/adaptive_scheduler.h"
 #include "scheduler/progressive_run.h"
@@ -68,8 +68,8 @@ class SamplerRun {
     SamplerRun(const Scene &scene, const SamplerSpec &spec, const ConvergeOptions &opt)
         : film_(uint32_t(scene.settings.width), uint32_t(scene.settings.height), {},
                 keeps_prefix(spec)),
-          integrator_(scene, scene.settings.seed, scene.settings.max_depth),
-          run_(integrator_, film_, options(scene, spec, opt)) {}
+          integrator_(make_path_tracer(scene, scene.settings.seed, scene.settings.max_depth)),
+          run_(*integrator_, film_, options(scene, spec, opt)) {}
 
     /// Renders until `target_s` seconds of render time in all (unless it stopped by itself),
     /// then takes snapshot `k`: the row and, when `keep` or it stopped, the final images.
@@ -131,7 +131,7 @@ class SamplerRun {
     }
 
     sampling::Film film_;
-    PathIntegrator integrator_;
+    std::unique_ptr<SampleSource> integrator_;
     sched::ProgressiveRun run_;
     double render_s_ = 0;
     bool stopped_ = false;

@@ -17,7 +17,7 @@
 #include "renderer/util/image_io.h"
 #include "renderer/util/json_io.h"
 #include "renderer/util/gzip_io.h"
-#include "renderer/integrators/path_integrator.h"
+#include "renderer/integrators/integrators.h"
 #include "renderer/input/pbrt_parser.h"
 #include "renderer/app/render.h"
 #include "scheduler/adaptive_scheduler.h"
@@ -263,13 +263,14 @@ Reference render_reference(const Scene &scene, const ReferenceSettings &s) {
     std::vector<float> halves[2];
     for (uint32_t k = 0; k < 2; ++k) {
         sampling::Film film(s.width, s.height);
-        PathIntegrator integrator(scene, s.seed + k, s.max_depth);
+        std::unique_ptr<SampleSource> integrator =
+            make_path_tracer(scene, s.seed + k, s.max_depth);
         sched::AdaptiveOptions o = uniform_scheduler_options(scene, s.threads, s.quiet);
         o.max_spp = half_spp;
         o.min_spp = std::min(o.min_spp, o.max_spp);
         o.seed = s.seed + k;
         o.deterministic = true;
-        sched::ProgressiveRun(integrator, film, o).advance(0, nullptr);
+        sched::ProgressiveRun(*integrator, film, o).advance(0, nullptr);
         halves[k] = film.beauty_rgb();
     }
     Reference ref;

@@ -135,8 +135,9 @@ sched::AdaptiveOptions uniform_scheduler_options(const Scene &scene, uint32_t th
 
 sched::AdaptiveStats render_scene(const Scene &scene, sampling::Film &film, uint32_t threads,
                                   double time_s, bool quiet, const std::atomic<bool> *cancel) {
-    PathIntegrator integrator(scene, scene.settings.seed, scene.settings.max_depth);
-    sched::ProgressiveRun run(integrator, film, uniform_scheduler_options(scene, threads, quiet));
+    std::unique_ptr<SampleSource> integrator =
+        make_path_tracer(scene, scene.settings.seed, scene.settings.max_depth);
+    sched::ProgressiveRun run(*integrator, film, uniform_scheduler_options(scene, threads, quiet));
     return run.advance(time_s, cancel);
 }
 

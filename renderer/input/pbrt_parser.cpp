@@ -173,9 +173,11 @@ std::optional<double> to_number(const Token &t) {
     return v;
 }
 
-/// The pbrt graphics state (pbrt-v4 BasicSceneBuilder::GraphicsState, minus media/colour space).
+/// The pbrt graphics state (pbrt-v4 BasicSceneBuilder::GraphicsState, minus the colour space).
 struct GraphicsState {
     Transform ctm;
+    std::string medium_inside, medium_outside;  ///< MediumInterface ("" = vacuum)
+    FileLoc medium_loc;
     bool reverse_orientation = false;
     std::string material;
     std::string area_light_type;
@@ -289,7 +291,7 @@ class Parser {
     /// (ObjectBegin, ObjectEnd, ObjectInstance).
     bool world_directive(Tokenizer &tok, const Token &t, const FileLoc &loc,
                          const std::string &dir);
-    /// Participating media (not supported: checked, then ignored with a warning).
+    /// Participating media: MakeNamedMedium and MediumInterface.
     bool medium_directive(Tokenizer &tok, const Token &t, const FileLoc &loc,
                           const std::string &dir);
 
@@ -715,6 +717,8 @@ bool Parser::option_directive(Tokenizer &tok, const Token &t, const FileLoc &loc
     if (d == "Camera") {
         set_option(scene_.camera, tok, t, dir);
         scene_.camera_from_world = state_.ctm;
+        scene_.camera_medium = state_.medium_outside;
+        scene_.camera_medium_loc = state_.medium_loc;
         named_coord_sys_["camera"] = state_.ctm.inverse();
     } else if (d == "Film") {
         set_option(scene_.film, tok, t, dir);
@@ -883,6 +887,8 @@ bool Parser::world_directive(Tokenizer &tok, const Token &t, const FileLoc &loc,
         s.render_from_object = state_.ctm;
         s.reverse_orientation = state_.reverse_orientation;
         s.material = state_.material;
+        s.medium_inside = state_.medium_inside;
+        s.medium_outside = state_.medium_outside;
         s.base_dir = main_dir_;  // pbrt-v4: relative to the main file
         if (!state_.area_light_type.empty()) {
             if (current_object_) {
@@ -945,13 +951,26 @@ bool Parser::medium_directive(Tokenizer &tok, const Token &t, const FileLoc &loc
             std::end(kMediumTypes))
             throw SceneError(type->loc, "MakeNamedMedium \"" + name + "\": unknown medium type \"" +
                                             t + "\"");
-        warn(loc, "participating media are not supported; medium \"" + name + "\" (" + t +
-                      ") is ignored");
+        if (auto it = scene_.media.find(name); it != scene_.media.end())
+            throw SceneError(loc, "named medium \"" + name + "\" redefined (first at " +
+                                      it->second.loc.str() + ")");
+        merge_defaults(ps, state_.medium_attrs);
+        MediumDesc &m = scene_.media[name];
+        m.name = name;
+        m.type = t;
+        m.params = std::move(ps);
+        m.params.find("type")->used = true;
+        m.loc = loc;
+        m.render_from_medium = state_.ctm;
+        m.base_dir = main_dir_;  // pbrt-v4: relative to the main file
     } else if (d == "MediumInterface") {
-        expect_string(tok, d);
+        // pbrt-v4: one name is both sides; two are inside, then outside.
+        std::string inside = expect_string(tok, d), outside = inside;
         const Token *p = tok.peek();
-        if (p && p->quoted) tok.next();
-        warn(loc, "participating media are not supported; MediumInterface is ignored");
+        if (p && p->quoted) outside = tok.next()->text;
+        state_.medium_inside = inside;
+        state_.medium_outside = outside;
+        state_.medium_loc = loc;
     } else {
         return false;
     }
@@ -995,6 +1014,22 @@ void Parser::finish(const Tokenizer &main) {
     for (const ShapeDesc &s : scene_.shapes) check_material(s);
     for (const auto &[name, o] : scene_.objects)
         for (const ShapeDesc &s : o.shapes) check_material(s);
+    // pbrt-v4 looks media up when it creates the camera and the shapes, after the whole file
+    // is read: a medium may be named before it is made.
+    auto check_medium = [&](const std::string &m, const FileLoc &loc) {
+        if (!m.empty() && !scene_.media.count(m))
+            throw SceneError(loc, "medium \"" + m + "\" is not defined");
+    };
+    check_medium(scene_.camera_medium, scene_.camera_medium_loc);
+    for (const ShapeDesc &s : scene_.shapes) {
+        check_medium(s.medium_inside, s.loc);
+        check_medium(s.medium_outside, s.loc);
+    }
+    for (const auto &[name, o] : scene_.objects)
+        for (const ShapeDesc &s : o.shapes) {
+            check_medium(s.medium_inside, s.loc);
+            check_medium(s.medium_outside, s.loc);
+        }
     for (const InstanceDesc &i : scene_.instances)
         if (!scene_.objects.count(i.object))
             throw SceneError(i.loc, "object \"" + i.object + "\" is not defined");

@@ -42,10 +42,14 @@
 //    "normal3" -> "normal", "color" -> "rgb" (with a warning). A `"spectrum"` parameter naming a
 //    file is read at parse time and stored as (lambda, value) numbers; a named spectrum stays a
 //    string. Bools are stored in Param::bools.
-//  - Unsupported features are accepted with a warning: media (MakeNamedMedium,
-//    MediumInterface), motion blur (TransformTimes; after `ActiveTransform EndTime` transform
-//    directives are ignored, only the StartTime transform is kept), ColorSpace other than
-//    "srgb", Option, TransformBegin/TransformEnd (deprecated, but they work), WorldEnd (v3).
+//  - Media: `MakeNamedMedium "name"` makes a MediumDesc (its "string type" consumed, the CTM
+//    as render_from_medium; a name made twice is an error); `MediumInterface "in" ["out"]` sets
+//    the graphics state's pair (one name: both sides), which every later shape copies and whose
+//    outside medium the Camera directive takes. Undefined medium names are errors at the end.
+//  - Unsupported features are accepted with a warning: motion blur (TransformTimes; after
+//    `ActiveTransform EndTime` transform directives are ignored, only the StartTime transform
+//    is kept), ColorSpace other than "srgb", Option, TransformBegin/TransformEnd (deprecated,
+//    but they work), WorldEnd (v3).
 //
 // Errors: a SceneError whose what() is exactly "file:line: message", the line being that of the
 // offending token. Warnings go through warn() (scene_desc.h).

@@ -93,6 +93,10 @@ struct ShapeDesc {
     Transform render_from_object;
     bool reverse_orientation = false;
     std::string material;      ///< name in SceneDesc::materials ("" = the default diffuse)
+    /// `MediumInterface "inside" "outside"` current at the shape (names in SceneDesc::media;
+    /// "" = vacuum). pbrt-v4: a shape whose two media differ is a medium transition; one whose
+    /// media are equal leaves a ray in the medium it is in.
+    std::string medium_inside, medium_outside;
     std::optional<ParamSet> area_light;  ///< AreaLightSource "diffuse" params when emissive
     FileLoc area_light_loc;
     std::string area_light_type;
@@ -127,6 +131,16 @@ struct LightDesc {
     std::string base_dir;
 };
 
+/// `MakeNamedMedium "name" "string type" ...`: a participating medium, with the CTM at its
+/// declaration (render from medium space: grids and their bounds live in medium space).
+struct MediumDesc {
+    std::string name, type;
+    ParamSet params;
+    FileLoc loc;
+    Transform render_from_medium;
+    std::string base_dir;
+};
+
 /// `ObjectBegin "name"` ... `ObjectEnd`: shapes in the object's own space.
 struct ObjectDesc {
     std::string name;
@@ -158,6 +172,11 @@ struct SceneDesc {
     std::vector<TextureDesc> textures;  ///< in declaration order (textures may reference earlier ones)
     std::vector<LightDesc> lights;
     std::map<std::string, ObjectDesc> objects;
+    std::map<std::string, MediumDesc> media;
+    /// The outside medium of the MediumInterface current at Camera (pbrt-v4 CameraSceneEntity::
+    /// medium): the medium camera rays start in ("" = vacuum).
+    std::string camera_medium;
+    FileLoc camera_medium_loc;
     std::vector<InstanceDesc> instances;
     std::string main_file;
     /// Files the parser read besides the main file (Include/Import files and spectrum files),

@@ -9,7 +9,13 @@
 
 namespace tessera {
 
-/// The integrator called `name` ("path" or "whitted") for `scene`, for the progressive
+/// Tessera's path tracer for `scene`: the volumetric one (volpath_integrator.h) when the scene
+/// has participating media, else the surface path tracer (path_integrator.h; `no_specialize`:
+/// the Specialization bits it must not use).
+std::unique_ptr<SampleSource> make_path_tracer(const Scene &scene, uint32_t seed, int max_depth,
+                                               uint32_t no_specialize = 0);
+
+/// The integrator called `name` ("path": make_path_tracer, or "whitted") for `scene`, for the progressive
 /// samplers (whitted without attribute vectors: they read none). Throws SceneError for an
 /// unknown name.
 std::unique_ptr<SampleSource> make_integrator(const Scene &scene, const std::string &name,

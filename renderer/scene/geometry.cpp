@@ -584,6 +584,8 @@ void fill_triangle(const TriangleMesh &m, unsigned prim, float b1, float b2,
         }
     }
     si.material = m.material;
+    si.medium_inside = m.medium_inside;
+    si.medium_outside = m.medium_outside;
     if (!m.lights.empty()) si.area_light = m.lights[prim];
 }
 
@@ -663,6 +665,8 @@ void fill_quadric(const Quadric &q, Vec3f p_world, SurfaceInteraction &si) {
     si.dpdv = t.vector(dpdv_obj);
     si.uv = uv;
     si.material = q.material;
+    si.medium_inside = q.medium_inside;
+    si.medium_outside = q.medium_outside;
     si.area_light = q.light;
 }
 
@@ -721,6 +725,8 @@ void fill_curve(const CurveSet &c, unsigned prim, float u, Vec3f o, Vec3f d, flo
     si.dpdv = dpdv;
     si.uv = {u, clamp(v, 0.f, 1.f)};
     si.material = c.material;
+    si.medium_inside = c.medium_inside;
+    si.medium_outside = c.medium_outside;
     si.area_light = nullptr;
 }
 

@@ -29,6 +29,7 @@ struct TriangleMesh {
     std::vector<uint32_t> indices;
     bool flip_normal = false;  ///< ReverseOrientation xor handedness swap
     int material = -1;
+    int medium_inside = -1, medium_outside = -1;  ///< Scene::media indices (SurfaceInteraction)
     /// Area lights per triangle (nullptr entries when not emissive); empty for non-emissive meshes.
     std::vector<const Light *> lights;
     /// pbrt's "alpha" cut-out: a texture (evaluated at the hit's uv) or a constant in [0, 1).
@@ -51,6 +52,7 @@ struct Quadric {
     float height = 0, inner_radius = 0;                          // disk
     bool flip_normal = false;
     int material = -1;
+    int medium_inside = -1, medium_outside = -1;  ///< Scene::media indices (SurfaceInteraction)
     const Light *light = nullptr;
 };
 
@@ -69,6 +71,7 @@ struct CurveSet {
     bool flip_normal = false;  ///< ReverseOrientation xor handedness swap
     bool mirrored = false;     ///< the transform into the group's space swaps handedness
     int material = -1;
+    int medium_inside = -1, medium_outside = -1;  ///< Scene::media indices (SurfaceInteraction)
     /// Each segment goes to Embree as `splits` Bézier pieces of equal parameter range, each
     /// tessellated into `tessellation` flat pieces (Embree allows at most 16).
     int splits = 1;

@@ -12,6 +12,7 @@
 #include "renderer/scene/geometry.h"
 #include "renderer/lights/light_sampler.h"
 #include "renderer/lights/lights.h"
+#include "renderer/media/medium.h"
 #include "renderer/shading/material.h"
 #include "renderer/shading/texture.h"
 #include "sampling/aov_set.h"
@@ -32,6 +33,7 @@ struct SceneFeatures {
     bool instances = false;       ///< object instancing
     bool quadrics = false;        ///< spheres or disks (user geometry)
     bool curves = false;          ///< pbrt "curve" shapes (Embree curves)
+    bool media = false;           ///< participating media (the volumetric path tracer runs)
     std::string describe() const;
 };
 
@@ -42,7 +44,8 @@ struct RenderSettings {
     int max_depth = 5;               ///< pbrt-v4 path integrator default
     bool regularize = false;
     /// The scene's Integrator is pbrt-v4's "volpath" (its default) rather than "path": the two
-    /// treat surfaces without a material ("interface") differently for shadow rays.
+    /// treat surfaces without a material ("interface") differently for shadow rays, and only
+    /// volpath renders participating media.
     bool volpath = true;
     uint32_t seed = 0;
     std::string output;              ///< Film "filename" (pbrt default "pbrt.exr")
@@ -96,6 +99,10 @@ class Scene {
     std::vector<const Light *> infinite_lights;
     std::unique_ptr<PowerLightSampler> light_sampler;
     std::unique_ptr<PerspectiveCamera> camera;
+    /// Participating media (MakeNamedMedium), indexed by SurfaceInteraction::medium_inside /
+    /// medium_outside; empty without media or with Integrator "path".
+    std::vector<std::unique_ptr<Medium>> media;
+    int camera_medium = -1;  ///< the medium camera rays start in (-1: vacuum)
     PixelFilter filter;
     RenderSettings settings;
     SceneFeatures features;

@@ -42,6 +42,7 @@ std::string SceneFeatures::describe() const {
     add(instances, "instances");
     add(quadrics, "quadrics");
     add(curves, "curves");
+    add(media, "media");
     return s.empty() ? "(none)" : s;
 }
 
@@ -574,6 +575,14 @@ struct Builder {
     const SceneDesc &d;
     Scene &sc;
     MaterialSet &mats;
+    /// MakeNamedMedium names -> Scene::media indices (-1: left out, or media not rendered).
+    std::map<std::string, int> medium_index;
+
+    int medium_of(const std::string &name) const {
+        if (name.empty()) return -1;
+        auto it = medium_index.find(name);
+        return it == medium_index.end() ? -1 : it->second;
+    }
 
     int material_of(const ShapeDesc &sd) {
         if (sd.material.empty()) return mats.default_index();
@@ -585,13 +594,15 @@ struct Builder {
     void add_shape(int group, const ShapeDesc &sd, const Transform &xf, bool allow_lights) {
         warn_shape_params(sd);
         int material = material_of(sd);
+        const int m_in = medium_of(sd.medium_inside), m_out = medium_of(sd.medium_outside);
         bool emissive = sd.area_light.has_value() && allow_lights;
         // pbrt-v4's volumetric path tracer (its default integrator) passes through a surface
         // without a material both along paths and with its shadow rays (VolPathIntegrator::
         // SampleLd traces shadow rays through them); without media such a surface changes
-        // nothing, so it is not built. pbrt-v4's "path" integrator continues paths through it
-        // but lets it block shadow rays (Integrator::Unoccluded); so does Tessera's.
-        if (!emissive && sc.settings.volpath &&
+        // nothing, so it is not built (unless it bounds a medium). pbrt-v4's "path" integrator
+        // continues paths through it but lets it block shadow rays (Integrator::Unoccluded);
+        // so does Tessera's.
+        if (!emissive && sc.settings.volpath && m_in == m_out &&
             mats.materials()[size_t(material)]->is_interface()) {
             for (const Param &p : sd.params.params) p.used = true;
             return;
@@ -602,6 +613,8 @@ struct Builder {
         std::vector<uint32_t> face_of_triangle;
         if (std::optional<TriangleMesh> m = triangles_of(sd, xf, &face_of_triangle)) {
             m->material = material;
+            m->medium_inside = m_in;
+            m->medium_outside = m_out;
             if (const Param *a = sd.params.find("alpha")) {
                 if (a->type == "texture") {
                     m->alpha_texture = sc.textures->float_param(sd.params, "alpha", 1.f);
@@ -658,6 +671,8 @@ struct Builder {
             Quadric q;
             q.render_from_object = xf;
             q.material = material;
+            q.medium_inside = m_in;
+            q.medium_outside = m_out;
             q.flip_normal = sd.reverse_orientation != xf.swaps_handedness();
             if (sd.type == "sphere") {
                 q.kind = Quadric::Kind::Sphere;
@@ -842,6 +857,8 @@ struct Builder {
         c.flip_normal = sd.reverse_orientation != xf.swaps_handedness();
         c.mirrored = xf.swaps_handedness();
         c.material = material;
+        c.medium_inside = medium_of(sd.medium_inside);
+        c.medium_outside = medium_of(sd.medium_outside);
         ps.report_unused("Shape \"curve\"");
         if (invisible) return;
         sc.features.curves = true;
@@ -906,6 +923,31 @@ struct Builder {
 
 }  // namespace
 
+/// The scene's media (pbrt-v4 BasicScene::CreateMedia) and the camera's. pbrt-v4's "path"
+/// integrator ignores media (its PathIntegrator has no volume code): the scene renders as if
+/// they were vacuum, with pbrt-v4's warning; volpath renders them.
+void build_media(const SceneDesc &d, std::map<std::string, int> &index, Scene &sc) {
+    if (d.media.empty()) return;
+    if (!sc.settings.volpath) {
+        for (const auto &[name, md] : d.media)
+            for (const Param &p : md.params.params) p.used = true;
+        warn(d.integrator.loc, "the scene has participating media but Integrator \"path\" does "
+                               "not render them (as in pbrt-v4); use \"volpath\"");
+        return;
+    }
+    for (const auto &[name, md] : d.media) {
+        std::unique_ptr<Medium> m = make_medium(md);
+        if (!m) continue;
+        index[name] = int(sc.media.size());
+        sc.media.push_back(std::move(m));
+    }
+    sc.features.media = !sc.media.empty();
+    if (!d.camera_medium.empty()) {
+        auto it = index.find(d.camera_medium);
+        sc.camera_medium = it == index.end() ? -1 : it->second;
+    }
+}
+
 std::unique_ptr<Scene> build_scene(const SceneDesc &d, const SceneOverrides &ov) {
     auto sc = std::make_unique<Scene>();
     apply_settings(d, ov, *sc);
@@ -917,7 +959,8 @@ std::unique_ptr<Scene> build_scene(const SceneDesc &d, const SceneOverrides &ov)
 
     sc->geometry = std::make_unique<Geometry>();
     sc->geometry->set_filter_every_mesh(ov.no_specialize & kSpecAlpha);
-    Builder b{d, *sc, mats};
+    Builder b{d, *sc, mats, {}};
+    build_media(d, b.medium_index, *sc);
     for (const ShapeDesc &sd : d.shapes)
         b.add_shape(sc->geometry->top_level(), sd, sd.render_from_object, true);
 

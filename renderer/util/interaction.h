@@ -70,6 +70,10 @@ struct SurfaceInteraction {
     Vec3f wo;             ///< unit direction toward the ray origin
     float t = 0;          ///< ray parameter of the hit
     int material = -1;    ///< index into Scene::materials (-1: none, "interface")
+    /// The shape's media (Scene::media indices, -1 = vacuum). pbrt-v4: where they differ the
+    /// surface is a medium transition, and a ray leaving it enters `medium_outside` on the side
+    /// of n, `medium_inside` on the other; where they are equal a ray keeps its medium.
+    int medium_inside = -1, medium_outside = -1;
     /// Stable id of the shape hit (Geometry::object_material maps it back): one per triangle
     /// mesh, sphere or disk, and one per (instance, prototype shape) pair.
     int32_t object_id = -1;
@@ -78,6 +82,12 @@ struct SurfaceInteraction {
     Vec3f dpdx, dpdy;
     float dudx = 0, dudy = 0, dvdx = 0, dvdy = 0;
 
+    bool medium_transition() const { return medium_inside != medium_outside; }
+    /// The medium a ray leaving in direction w is in, coming from medium `current`.
+    int medium_after(Vec3f w, int current) const {
+        if (!medium_transition()) return current;
+        return dot(w, n) > 0.f ? medium_outside : medium_inside;
+    }
     /// Spawns a ray leaving the surface in direction d.
     Ray spawn_ray(Vec3f d) const { return Ray{offset_ray_origin(p, p_error, n, d), d, kInfinity}; }
     /// Origin and end points for a shadow ray toward `p_to` (another surface point or light).

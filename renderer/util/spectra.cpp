@@ -187,6 +187,17 @@ Rgb blackbody_rgb(float kelvin) {
     return normalised_rgb(integrate_xyz([&](double l) { return planck(l, kelvin); }));
 }
 
+Rgb blackbody_peak_rgb(float kelvin) {
+    if (!(kelvin > 0)) return Rgb(0.f);
+    const double lambda_max_nm = 2.8977721e-3 / double(kelvin) * 1e9;  // Wien's law
+    const double peak = planck(lambda_max_nm, kelvin);
+    std::array<double, 3> xyz = integrate_xyz([&](double l) { return planck(l, kelvin) / peak; });
+    constexpr double kCieYIntegral = 106.856895;  // pbrt-v4 CIE_Y_integral (1 nm steps)
+    return clamp_zero(xyz_to_linear_srgb(Vec3f(float(xyz[0] / kCieYIntegral),
+                                               float(xyz[1] / kCieYIntegral),
+                                               float(xyz[2] / kCieYIntegral))));
+}
+
 Vec2f daylight_xy(float kelvin) {
     const double cct = double(kelvin) * 1.4388 / 1.4380;
     if (cct < 4000) {

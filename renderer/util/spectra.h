@@ -46,6 +46,10 @@ double planck(double lambda_nm, double kelvin);
 /// components, below about 1900 K, are clamped to 0.
 Rgb blackbody_rgb(float kelvin);
 
+/// pbrt-v4's BlackbodySpectrum itself (peak-normalised, no photometric division) in linear
+/// sRGB: what a grid medium's "temperature" emits per unit Lescale. Negative components clamped.
+Rgb blackbody_peak_rgb(float kelvin);
+
 /// Chromaticity (x, y) of pbrt-v4's Spectra::D(kelvin), the white a Film "whitebalance" names:
 /// the temperature is rescaled to a CCT (x 1.4388 / 1.4380), then the CIE daylight locus
 /// (CIE 15:2004) from 4000 K up, and a blackbody's chromaticity below 4000 K, as pbrt-v4 does.
