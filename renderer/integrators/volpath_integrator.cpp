@@ -4,6 +4,7 @@
 #include <cstdio>
 
 #include "renderer/integrators/path_common.h"
+#include "renderer/scene/specialize.h"
 
 namespace tessera {
 
@@ -44,7 +45,8 @@ inline float avg(Rgb v) { return v.average(); }
 }  // namespace
 
 VolPathIntegrator::VolPathIntegrator(const Scene &scene, uint32_t seed, int max_depth)
-    : scene_(scene), seed_(seed), max_depth_(max_depth), differentials_(scene.features.textures) {
+    : scene_(scene), seed_(seed), max_depth_(max_depth),
+      differentials_(!(applicable_specializations(scene) & kSpecDifferentials)) {
     for (const auto &m : scene.materials) has_interfaces_ = has_interfaces_ || m->is_interface();
 }
 

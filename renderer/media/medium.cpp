@@ -580,7 +580,12 @@ std::unique_ptr<Medium> make_rgb_grid(const MediumDesc &d) {
         return SampledGrid<Rgb>{n[0], n[1], n[2], std::move(v)};
     };
     const Vec3f p0 = ps.get_point3("p0", {0, 0, 0}), p1 = ps.get_point3("p1", {1, 1, 1});
-    const float Le_scale = ps.get_float("Lescale", 1.f), scale = ps.get_float("scale", 1.f);
+    // pbrt-v4 reads the grid's "Le" as RGBIlluminantSpectrum values and, unlike its lights and
+    // the other media, never divides them by their photometric value: on its film an Le of
+    // (1, 1, 1) has a luminance of kCieYIntegral (spectra.h). Tessera renders the file as
+    // pbrt-v4 does.
+    const float Le_scale = ps.get_float("Lescale", 1.f) * kCieYIntegral;
+    const float scale = ps.get_float("scale", 1.f);
     auto m = std::make_unique<RgbGridMedium>(p0, p1, d.render_from_medium, grid(std::move(sa)),
                                              grid(std::move(ss)), scale, grid(std::move(le)),
                                              Le_scale);

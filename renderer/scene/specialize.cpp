@@ -77,6 +77,9 @@ uint32_t applicable_specializations(const Scene &scene) {
     if (scene.geometry && scene.geometry->opaque_mesh_count() > 0) mask |= kSpecAlpha;
     // kSpecAttributes is the real-time loop's (what is collected depends on the frame plugin;
     // its stats report attributes_collected): not listed here.
+    // The volumetric path tracer (scenes with media) has no Lambertian, packet or culling
+    // variants: only the differentials and alpha rules apply to it.
+    if (scene.features.media) mask &= kSpecDifferentials | kSpecAlpha;
     return mask;
 }
 

@@ -191,11 +191,11 @@ Rgb blackbody_peak_rgb(float kelvin) {
     if (!(kelvin > 0)) return Rgb(0.f);
     const double lambda_max_nm = 2.8977721e-3 / double(kelvin) * 1e9;  // Wien's law
     const double peak = planck(lambda_max_nm, kelvin);
+    // pbrt-v4's sensor takes a spectrum's XYZ as its inner products with the matching
+    // functions (PixelSensor::ToSensorRGB, no division by the integral of y-bar): a
+    // peak-normalised blackbody has a luminance of about 107 at 6500 K.
     std::array<double, 3> xyz = integrate_xyz([&](double l) { return planck(l, kelvin) / peak; });
-    constexpr double kCieYIntegral = 106.856895;  // pbrt-v4 CIE_Y_integral (1 nm steps)
-    return clamp_zero(xyz_to_linear_srgb(Vec3f(float(xyz[0] / kCieYIntegral),
-                                               float(xyz[1] / kCieYIntegral),
-                                               float(xyz[2] / kCieYIntegral))));
+    return clamp_zero(xyz_to_linear_srgb(Vec3f(float(xyz[0]), float(xyz[1]), float(xyz[2]))));
 }
 
 Vec2f daylight_xy(float kelvin) {

@@ -47,8 +47,15 @@ double planck(double lambda_nm, double kelvin);
 Rgb blackbody_rgb(float kelvin);
 
 /// pbrt-v4's BlackbodySpectrum itself (peak-normalised, no photometric division) in linear
-/// sRGB: what a grid medium's "temperature" emits per unit Lescale. Negative components clamped.
+/// sRGB as pbrt-v4's film sees a raw spectrum (its luminance is the spectrum's inner product with
+/// y-bar, about 107 for a flat spectrum of 1): what a grid medium's "temperature" emits per unit
+/// Lescale. Negative components clamped.
 Rgb blackbody_peak_rgb(float kelvin);
+
+/// pbrt-v4's CIE_Y_integral, the integral of the CIE 1931 y-bar over 360-830 nm: the luminance
+/// its film gives a raw spectrum of 1 (or an RGBIlluminantSpectrum of (1, 1, 1)) that no light
+/// divides by its photometric value.
+inline constexpr float kCieYIntegral = 106.856895f;
 
 /// Chromaticity (x, y) of pbrt-v4's Spectra::D(kelvin), the white a Film "whitebalance" names:
 /// the temperature is rescaled to a CCT (x 1.4388 / 1.4380), then the CIE daylight locus

@@ -268,7 +268,8 @@ void check_family(const std::string &family) {
 
 // The families; ctest runs each alone (tests/CMakeLists.txt: fidelity_<family>).
 const char *const kFamilies[] = {"material", "coated", "furnace", "texture", "light", "camera",
-                                 "filter", "film", "integrator", "spectral", "shape"};
+                                 "filter", "film", "integrator", "spectral", "shape",
+                                 "medium"};
 
 TEST_CASE("families: every scene belongs to one, and every family has scenes") {
     for (const auto &entry : fs::directory_iterator(kDir / "scenes")) {
@@ -298,4 +299,5 @@ TEST_CASE("filter") { check_family("filter"); }
 TEST_CASE("film") { check_family("film"); }
 TEST_CASE("integrator") { check_family("integrator"); }
 TEST_CASE("spectral") { check_family("spectral"); }
+TEST_CASE("medium") { check_family("medium"); }
 TEST_CASE("shape") { check_family("shape"); }
