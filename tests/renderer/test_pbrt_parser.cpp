@@ -296,6 +296,44 @@ Shape "sphere"
     check_vec(s.shapes[0].render_from_object.point({0, 0, 0}), {0, 2, 0});
 }
 
+TEST_CASE("media: MakeNamedMedium, MediumInterface scopes, the camera's medium") {
+    SceneDesc s = parse(R"(MediumInterface "" "air"
+LookAt 0 0 -3  0 0 0  0 1 0
+Camera "perspective"
+WorldBegin
+Translate 0 1 0
+MakeNamedMedium "air" "string type" "homogeneous" "rgb sigma_s" [ 0.1 0.1 0.1 ]
+AttributeBegin
+  MediumInterface "ink"
+  Shape "sphere"
+  MediumInterface "ink" "air"
+  Shape "sphere"
+AttributeEnd
+Shape "sphere"
+MakeNamedMedium "ink" "string type" "uniformgrid" "float density" [ 1 ]
+)");
+    CHECK(s.camera_medium == "air");
+    REQUIRE(s.media.size() == 2);
+    const MediumDesc &air = s.media.at("air");
+    CHECK(air.type == "homogeneous");
+    check_vec(air.render_from_medium.point({0, 0, 0}), {0, 1, 0});  // the CTM at its declaration
+    CHECK(air.params.find("type")->used);  // consumed, as MakeNamedMaterial's
+    REQUIRE(s.shapes.size() == 3);
+    CHECK(s.shapes[0].medium_inside == "ink");  // one name: both sides
+    CHECK(s.shapes[0].medium_outside == "ink");
+    CHECK(s.shapes[1].medium_inside == "ink");
+    CHECK(s.shapes[1].medium_outside == "air");
+    // AttributeEnd restores the interface current before (the camera's, "" "air").
+    CHECK(s.shapes[2].medium_inside.empty());
+    CHECK(s.shapes[2].medium_outside == "air");
+    CHECK_THROWS_WITH_AS(parse("WorldBegin\nMediumInterface \"nope\" \"\"\nShape \"sphere\"\n"),
+                         "test.pbrt:3: medium \"nope\" is not defined", SceneError);
+    CHECK_THROWS_WITH_AS(
+        parse("MakeNamedMedium \"a\" \"string type\" \"homogeneous\"\n"
+              "MakeNamedMedium \"a\" \"string type\" \"homogeneous\"\n"),
+        "test.pbrt:2: named medium \"a\" redefined (first at test.pbrt:1)", SceneError);
+}
+
 TEST_CASE("ObjectBegin/ObjectInstance") {
     SceneDesc s = parse(R"(WorldBegin
 AttributeBegin
