@@ -154,8 +154,10 @@ void write_diagnostics(const std::string &name, const Pair &t, const Pair &r) {
     save(".diff.exr", diff);
 }
 
-/// Renders one scene and checks it against its references; appends a row to `table`.
-void check_scene(const std::string &name, const Expectation &e, std::ostream &table) {
+/// Renders one scene (tests/fidelity/scenes/NAME.pbrt, or `scene_file` with the resolution
+/// `ov` gives) and checks it against its references; appends a row to `table`.
+void check_scene(const std::string &name, const Expectation &e, std::ostream &table,
+                 const std::string &scene_file = "", SceneOverrides ov = {}) {
     CAPTURE(name);
     fs::path ref1 = kDir / "refs" / (name + ".seed1.exr"),
              ref2 = kDir / "refs" / (name + ".seed2.exr");
@@ -163,9 +165,9 @@ void check_scene(const std::string &name, const Expectation &e, std::ostream &ta
     REQUIRE(fs::exists(ref2));
     Pair r = make_pair(read_image_rgb(ref1.string()), read_image_rgb(ref2.string()));
 
-    SceneOverrides ov;
     ov.spp = e.spp;
-    auto scene = load_scene((kDir / "scenes" / (name + ".pbrt")).string(), ov);
+    auto scene = load_scene(
+        scene_file.empty() ? (kDir / "scenes" / (name + ".pbrt")).string() : scene_file, ov);
     REQUIRE(scene);
     Pair t = make_pair(render_seed(*scene, 1), render_seed(*scene, 2));
     REQUIRE(t.mean.width == r.mean.width);
@@ -264,6 +266,17 @@ void check_family(const std::string &family) {
     }
 }
 
+/// Public scenes of ../shared/scenes checked against pbrt-v4 references at a reduced
+/// resolution (tests/fidelity/make_refs.py SHARED_SCENES renders them): name, path under
+/// ../shared, resolution.
+struct SharedScene {
+    const char *name, *path;
+    int width, height;
+};
+const SharedScene kSharedScenes[] = {
+    {"shared-staircase2", "scenes/bitterli/staircase2/scene-v4.pbrt", 128, 128},
+};
+
 }  // namespace
 
 // The families; ctest runs each alone (tests/CMakeLists.txt: fidelity_<family>).
@@ -284,7 +297,9 @@ TEST_CASE("families: every scene belongs to one, and every family has scenes") {
     // Every expectation names a scene that exists.
     for (const auto &entry : read_expectations()) {
         const std::string &name = entry.first;
-        CHECK_MESSAGE(fs::exists(kDir / "scenes" / (name + ".pbrt")),
+        bool shared = false;
+        for (const SharedScene &sh : kSharedScenes) shared = shared || name == sh.name;
+        CHECK_MESSAGE((shared || fs::exists(kDir / "scenes" / (name + ".pbrt"))),
                       "expectations.txt names a scene that does not exist: " << name);
     }
 }
@@ -300,4 +315,22 @@ TEST_CASE("film") { check_family("film"); }
 TEST_CASE("integrator") { check_family("integrator"); }
 TEST_CASE("spectral") { check_family("spectral"); }
 TEST_CASE("medium") { check_family("medium"); }
+
+TEST_CASE("shared") {
+    TESSERA_REQUIRE_SHARED(shared);
+    std::map<std::string, Expectation> expect = read_expectations();
+    fs::path dir = fs::path(output_dir()) / "fidelity";
+    fs::create_directories(dir);
+    std::ofstream table(dir / "shared.tsv");
+    table << "scene\tmean_R\tmean_G\tmean_B\tmean_noise\tworst_block\tmax_z\tbad_blocks"
+             "\trelmse_vs_pbrt\trelmse_seeds\trelmse_pbrt_seeds\tresult\n";
+    for (const SharedScene &sh : kSharedScenes) {
+        SceneOverrides ov;
+        ov.width = sh.width;
+        ov.height = sh.height;
+        auto it = expect.find(sh.name);
+        check_scene(sh.name, it == expect.end() ? Expectation{} : it->second, table,
+                    (fs::path(shared) / sh.path).string(), ov);
+    }
+}
 TEST_CASE("shape") { check_family("shape"); }
