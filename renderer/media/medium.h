@@ -15,7 +15,8 @@
 //     outside) in the box p0..p1 of medium space scaling sigma_a and sigma_s; optional
 //     "temperature" (blackbody emission) or "Le" with an "Lescale" grid;
 //   - rgbgrid: per-sample RGB sigma_a, sigma_s and Le grids;
-//   - cloud: pbrt-v4's procedural cloud (fractal noise in a box).
+//   - cloud: pbrt-v4's procedural cloud (fractal Perlin noise in a box, renderer/util/noise.h);
+//   - nanovdb: not available (Debian ships no NanoVDB reader): a warning, and vacuum.
 // Grids carry a 16^3 majorant grid (pbrt-v4 MajorantGrid), walked by a 3D DDA, so that sparse
 // volumes are not sampled at the densest voxel's rate.
 //

@@ -104,6 +104,14 @@ float perlin_noise(float x, float y, float z) {
     return lerp_f(wz, y0, y1);
 }
 
+Vec3f perlin_dnoise(Vec3f p) {
+    const float delta = .01f;
+    const float n = perlin_noise(p);
+    const Vec3f nd(perlin_noise(p + Vec3f(delta, 0, 0)), perlin_noise(p + Vec3f(0, delta, 0)),
+                   perlin_noise(p + Vec3f(0, 0, delta)));
+    return (nd - Vec3f(n, n, n)) / delta;
+}
+
 float fbm(Vec3f p, Vec3f dpdx, Vec3f dpdy, float omega, int max_octaves) {
     float n = octave_count(dpdx, dpdy, max_octaves);
     int n_int = int(std::floor(n));

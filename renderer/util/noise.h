@@ -15,6 +15,9 @@ inline float perlin_noise(Vec3f p) {
     return perlin_noise(p.x, p.y, p.z);
 }
 
+/// The gradient of perlin_noise by forward differences of 0.01 (pbrt-v4 DNoise).
+Vec3f perlin_dnoise(Vec3f p);
+
 /// Fractional Brownian motion: octaves of noise at frequencies 1.99^i with weights omega^i,
 /// as many as the footprint (dpdx, dpdy, in texture space) resolves, at most max_octaves, the
 /// last one faded in (pbrt-v4 FBm).

@@ -289,6 +289,25 @@ TEST_CASE("media presets and parameter errors are pbrt-v4's") {
     bad("MakeNamedMedium \"g\" \"string type\" \"uniformgrid\" \"float density\" [ -1 ]\n");
 }
 
+TEST_CASE("nanovdb media are left out (no reader in this build); cloud media are built") {
+    auto scene = scene_from_string(std::string(kHeader) +
+                                   "MakeNamedMedium \"v\" \"string type\" \"nanovdb\" "
+                                   "\"string filename\" \"smoke.nvdb\"\n"
+                                   "MakeNamedMedium \"c\" \"string type\" \"cloud\"\n"
+                                   "MediumInterface \"v\" \"c\"\nShape \"sphere\"\n");
+    REQUIRE(scene->media.size() == 1);
+    CHECK(scene->media[0]->name == "c");
+    // The cloud's density is in [0, 1] and its majorant sigma_a + sigma_s (1 + 1) bounds it.
+    const Medium &c = *scene->media[0];
+    Pcg32 rng(3, 4);
+    for (int i = 0; i < 1000; ++i) {
+        Vec3f p{rng.uniform(), rng.uniform(), rng.uniform()};
+        MediumProperties mp = c.sample_point(p);
+        CHECK(mp.sigma_a[0] >= 0.f);
+        CHECK(mp.sigma_a[0] + mp.sigma_s[0] <= 2.f);
+    }
+}
+
 TEST_CASE("a scene without media keeps the surface path tracer; path ignores media") {
     auto plain = scene_from_string(std::string(kHeader) + "Shape \"sphere\"\n");
     CHECK_FALSE(plain->features.media);
