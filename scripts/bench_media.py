@@ -2,11 +2,11 @@
 """Time to equal error on scenes with participating media: Tessera against pbrt-v4, same scene
 files, same machine, same thread count, side by side in one run.
 
-    scripts/bench_media.py [--spp 256] [--threads 2] [-o renders/bench-media]
+    scripts/bench_media.py [--spp 1024] [--threads 2] [-o renders/bench-media]
                            [--tessera build/tessera] [--pbrt PATH] [SCENE.pbrt[@SCALE] ...]
 
 Without scenes: every tests/fidelity/scenes/medium-*.pbrt (64x64) and, when ../shared is
-present, ../shared/scenes/bitterli/staircase2 at a quarter of its resolution.
+present, ../shared/scenes/bitterli/staircase2 at an eighth of its resolution (128x128).
 
 Each renderer renders each scene twice (seeds 1 and 2) at --spp samples per pixel (Tessera with
 its uniform sampler, as pbrt-v4 samples), timing the whole process (parse, build, render,
@@ -38,7 +38,7 @@ def default_scenes():
            if f.startswith('medium-') and f.endswith('.pbrt')]
     st2 = os.path.join(SHARED, 'scenes', 'bitterli', 'staircase2', 'scene-v4.pbrt')
     if os.path.exists(st2):
-        out.append((st2, 0.25))
+        out.append((st2, 0.125))
     else:
         print('bench_media: ../shared/scenes/bitterli/staircase2 not found: left out', flush=True)
     return out
@@ -47,7 +47,7 @@ def default_scenes():
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split('\n')[0])
     ap.add_argument('scenes', nargs='*', help='SCENE.pbrt or SCENE.pbrt@SCALE')
-    ap.add_argument('--spp', type=int, default=256)
+    ap.add_argument('--spp', type=int, default=1024)
     ap.add_argument('--threads', type=int, default=2)
     ap.add_argument('-o', '--out', default=os.path.join(ROOT, 'renders', 'bench-media'))
     ap.add_argument('--tessera', default=os.path.join(ROOT, 'build', 'tessera'))
@@ -71,7 +71,12 @@ def main():
         name = stem if stem not in ('scene', 'scene-v4') else \
             os.path.basename(os.path.dirname(os.path.abspath(scene)))
         sdir = os.path.join(args.out, name)
-        path, w, h = scaled_scene(scene, os.path.join(sdir, 'mirror'), scale)
+        if scale == 1.0:  # as it is (the fidelity scenes take their Film from an Include)
+            path = os.path.abspath(scene)
+            os.makedirs(sdir, exist_ok=True)
+            w = h = '-'
+        else:
+            path, w, h = scaled_scene(scene, os.path.join(sdir, 'mirror'), scale)
         cwd = os.path.dirname(path)
         t, img = {}, {}
         for seed in (1, 2):

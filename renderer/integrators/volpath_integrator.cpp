@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <limits>
 
 #include "renderer/integrators/path_common.h"
 #include "renderer/scene/specialize.h"
@@ -141,7 +142,22 @@ VolPathIntegrator::PathResult VolPathIntegrator::trace(const CameraRay &cray, in
             } else if (sc.geometry->occluded(sr.ray)) {
                 return;
             }
-            if (sr.medium >= 0) {
+            Rgb sigma_t;
+            if (sr.medium >= 0 && sc.media[size_t(sr.medium)]->constant_sigma_t(&sigma_t)) {
+                // A homogeneous segment: ratio tracking against a majorant equal to sigma_t is
+                // all or nothing (the first collision zeroes it); its expectation given the
+                // ratios is the closed form, used instead (same mean, no noise): T_ray gets
+                // exp(-sigma_t d), and both ratios the channels' transmittance over the hero's,
+                // as ratio tracking leaves them when no collision happens.
+                float d = (hit ? hit->t : sr.ray.t_max) * length(sr.ray.d);
+                if (std::isinf(d)) d = std::numeric_limits<float>::max();
+                const Rgb T = exp(-d * sigma_t);
+                const float th = T[h];
+                if (!(th > 0.f)) return;
+                T_ray *= T;
+                rl *= T / th;
+                ru *= T / th;
+            } else if (sr.medium >= 0) {
                 const float t_max = hit ? hit->t : sr.ray.t_max;
                 const float u = rng.uniform();
                 Rgb T_maj = sample_t_maj(

@@ -4,7 +4,8 @@
 // (delta tracking with null scattering, Novak et al. 2014); at a sampled point the path is
 // absorbed (adding the medium's emission), scatters (next-event estimation through the media
 // with ratio-tracking transmittance, then Henyey-Greenstein phase sampling) or continues (a
-// null collision). Surfaces shade as in the path tracer; surfaces without a material
+// null collision). Through homogeneous media shadow rays take the closed-form transmittance,
+// the expectation of pbrt-v4's ratio-tracking estimate there (same image, less noise). Surfaces shade as in the path tracer; surfaces without a material
 // ("interface") only move the ray from one medium into another.
 //
 // Chromatic media (sigma_t differing per channel): pbrt-v4's spectral MIS (Miller, Georgiev and

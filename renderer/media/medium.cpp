@@ -109,6 +109,15 @@ struct SampledGrid {
         const int ix = int(std::floor(sx)), iy = int(std::floor(sy)), iz = int(std::floor(sz));
         const float dx = sx - float(ix), dy = sy - float(iy), dz = sz - float(iz);
         auto lerp1 = [](float t, T a, T b) { return a * (1.f - t) + b * t; };
+        if (ix >= 0 && iy >= 0 && iz >= 0 && ix + 1 < nx && iy + 1 < ny && iz + 1 < nz) {
+            // All eight samples inside (most lookups): index them directly.
+            const size_t sx1 = 1, sy1 = size_t(nx), sz1 = size_t(nx) * size_t(ny);
+            const T *v = &values[size_t(iz) * sz1 + size_t(iy) * sy1 + size_t(ix)];
+            const T e00 = lerp1(dx, v[0], v[sx1]), e10 = lerp1(dx, v[sy1], v[sy1 + sx1]);
+            const T e01 = lerp1(dx, v[sz1], v[sz1 + sx1]);
+            const T e11 = lerp1(dx, v[sz1 + sy1], v[sz1 + sy1 + sx1]);
+            return lerp1(dz, lerp1(dy, e00, e10), lerp1(dy, e01, e11));
+        }
         const T d00 = lerp1(dx, at(ix, iy, iz), at(ix + 1, iy, iz));
         const T d10 = lerp1(dx, at(ix, iy + 1, iz), at(ix + 1, iy + 1, iz));
         const T d01 = lerp1(dx, at(ix, iy, iz + 1), at(ix + 1, iy, iz + 1));
@@ -176,6 +185,10 @@ class HomogeneousMedium final : public Medium {
         return MajorantIterator::single(0.f, t_max, mp_.sigma_a + mp_.sigma_s);
     }
     bool is_emissive() const override { return mp_.Le.max_value() > 0.f; }
+    bool constant_sigma_t(Rgb *sigma_t) const override {
+        *sigma_t = mp_.sigma_a + mp_.sigma_s;
+        return true;
+    }
     std::string describe() const override {
         char buf[256];
         std::snprintf(buf, sizeof(buf),

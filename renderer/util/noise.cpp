@@ -81,9 +81,12 @@ float perlin_noise(float x, float y, float z) {
     if (!std::isfinite(x) || !std::isfinite(y) || !std::isfinite(z))
         return 0.f;
     constexpr float kWrap = 1073741824.f;
-    x = std::fmod(x, kWrap);
-    y = std::fmod(y, kWrap);
-    z = std::fmod(z, kWrap);
+    // fmod is the identity below 2^30 (most calls: skip it, same bits).
+    if (!(std::abs(x) < kWrap && std::abs(y) < kWrap && std::abs(z) < kWrap)) {
+        x = std::fmod(x, kWrap);
+        y = std::fmod(y, kWrap);
+        z = std::fmod(z, kWrap);
+    }
     int ix = int(std::floor(x)), iy = int(std::floor(y)), iz = int(std::floor(z));
     float dx = x - float(ix), dy = y - float(iy), dz = z - float(iz);
     ix &= 255;
