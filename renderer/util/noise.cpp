@@ -3,7 +3,9 @@
 #include "renderer/util/noise.h"
 
 #include <array>
+#include <bit>
 #include <cmath>
+#include <cstdint>
 
 namespace tessera {
 
@@ -34,11 +36,18 @@ int perm(int i) {
 /// Dot product of the corner's pseudo-random gradient with the offset (dx, dy, dz): one of
 /// twelve edge directions, picked by pbrt-v4's hash. Its hashes 12 to 15 repeat directions 0,
 /// 1, 10 and 11 (Perlin's reference repeats 0, 9, 1 and 11): the values are pbrt-v4's.
+/// Evaluated without branches (the hash is random: branches on it mispredict half the time):
+/// the same selections and sign flips, so the same bits.
 float grad(int x, int y, int z, float dx, float dy, float dz) {
-    int h = perm(perm(perm(x) + y) + z) & 15;
-    float u = h < 8 || h == 12 || h == 13 ? dx : dy;
-    float v = h < 4 || h == 12 || h == 13 ? dy : dz;
-    return ((h & 1) ? -u : u) + ((h & 2) ? -v : v);
+    const int h = perm(perm(perm(x) + y) + z) & 15;
+    // u: dx for h < 8, 12 and 13, else dy; v: dy for h < 4, 12 and 13, else dz.
+    static constexpr uint8_t kU[16] = {0, 0, 0, 0, 0, 0, 0, 0, 1, 1, 1, 1, 0, 0, 1, 1};
+    static constexpr uint8_t kV[16] = {1, 1, 1, 1, 2, 2, 2, 2, 2, 2, 2, 2, 1, 1, 2, 2};
+    const float c[3] = {dx, dy, dz};
+    const uint32_t su = uint32_t(h & 1) << 31, sv = uint32_t(h & 2) << 30;
+    const float u = std::bit_cast<float>(std::bit_cast<uint32_t>(c[kU[h]]) ^ su);
+    const float v = std::bit_cast<float>(std::bit_cast<uint32_t>(c[kV[h]]) ^ sv);
+    return u + v;
 }
 
 /// 6 t^5 - 15 t^4 + 10 t^3, evaluated as pbrt-v4 does (powers by squaring, no Horner form).
