@@ -25,7 +25,9 @@
 // unit direction. All methods are const and thread-safe.
 #pragma once
 
+#include <cmath>
 #include <cstdint>
+#include <limits>
 #include <memory>
 #include <string>
 #include <vector>
@@ -136,6 +138,11 @@ uint64_t hash_floats(Vec3f a, Vec3f b);
 /// the majorant transmittance since the previous point; the callback returns false to stop.
 /// The first distance uses `u`, later ones `rng`. Returns the majorant transmittance from the
 /// last point to t_max (1 when the callback stopped the walk).
+///
+/// Unlike pbrt-v4, which draws a new exponential distance in every segment it enters, one
+/// optical depth (an Exp(1) variate) is drawn per collision and spent across segments: the
+/// same process (the exponential is memoryless), with one logarithm per collision instead of
+/// one per majorant voxel crossed.
 template <class F>
 Rgb sample_t_maj(const Medium &medium, Ray ray, float t_max, float u, Pcg32 &rng, int hero,
                  F &&callback) {
@@ -145,27 +152,23 @@ Rgb sample_t_maj(const Medium &medium, Ray ray, float t_max, float u, Pcg32 &rng
     MajorantIterator it = medium.sample_ray(ray, t_max);
     Rgb T_maj(1.f);
     MajorantSegment seg;
+    float tau = -std::log1p(-u);  // optical depth (hero channel) to the next collision
     while (it.next(&seg)) {
         const float s_h = seg.sigma_maj[hero];
-        if (s_h == 0.f) {
-            float dt = seg.t1 - seg.t0;
-            if (std::isinf(dt)) dt = std::numeric_limits<float>::max();
-            T_maj *= exp(-dt * seg.sigma_maj);
-            continue;
-        }
         float t_min = seg.t0;
         while (true) {
-            const float t = t_min - std::log1p(-u) / s_h;
-            u = rng.uniform();
-            if (t < seg.t1) {
+            float dt = seg.t1 - t_min;
+            if (std::isinf(dt)) dt = std::numeric_limits<float>::max();
+            if (s_h > 0.f && tau < s_h * dt) {
+                const float t = t_min + tau / s_h;
                 T_maj *= exp(-(t - t_min) * seg.sigma_maj);
                 const Vec3f p = ray.o + ray.d * t;
                 if (!callback(p, medium.sample_point(p), seg.sigma_maj, T_maj)) return Rgb(1.f);
                 T_maj = Rgb(1.f);
                 t_min = t;
+                tau = -std::log1p(-rng.uniform());
             } else {
-                float dt = seg.t1 - t_min;
-                if (std::isinf(dt)) dt = std::numeric_limits<float>::max();
+                tau -= s_h * dt;
                 T_maj *= exp(-dt * seg.sigma_maj);
                 break;
             }
