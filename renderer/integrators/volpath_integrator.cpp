@@ -151,7 +151,7 @@ VolPathIntegrator::PathResult VolPathIntegrator::trace(const CameraRay &cray, in
                 // as ratio tracking leaves them when no collision happens.
                 float d = (hit ? hit->t : sr.ray.t_max) * length(sr.ray.d);
                 if (std::isinf(d)) d = std::numeric_limits<float>::max();
-                const Rgb T = exp(-d * sigma_t);
+                const Rgb T = transmittance(sigma_t, d);
                 const float th = T[h];
                 if (!(th > 0.f)) return;
                 T_ray *= T;
