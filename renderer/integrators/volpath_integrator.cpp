@@ -129,7 +129,9 @@ VolPathIntegrator::PathResult VolPathIntegrator::trace(const CameraRay &cray, in
         const LightType lt = light->type();
         MediumRay sr = shadow_ray_from(sp, *ls, lt);
         Rgb T_ray(1.f), rl(1.f), ru(1.f);
-        Pcg32 rng(hash_floats(sr.ray.o, sr.ray.d), 0);
+        const float key[6] = {sr.ray.o.x, sr.ray.o.y, sr.ray.o.z,
+                              sr.ray.d.x, sr.ray.d.y, sr.ray.d.z};
+        Pcg32 rng(hash_floats(key, 6), 0);
         const bool at_infinity = lt == LightType::Infinite || lt == LightType::DeltaDirection;
         for (int crossings = 0; crossings < 256; ++crossings) {
             ++res.rays;

@@ -73,19 +73,6 @@ bool MajorantIterator::next(MajorantSegment *seg) {
     return true;
 }
 
-uint64_t hash_floats(Vec3f a, Vec3f b) {
-    float v[6] = {a.x, a.y, a.z, b.x, b.y, b.z};
-    uint64_t h = 0xcbf29ce484222325ULL;  // FNV-1a over the bytes, then a 64-bit finaliser
-    const unsigned char *c = reinterpret_cast<const unsigned char *>(v);
-    for (size_t i = 0; i < sizeof(v); ++i) h = (h ^ c[i]) * 0x100000001b3ULL;
-    h ^= h >> 33;
-    h *= 0xff51afd7ed558ccdULL;
-    h ^= h >> 33;
-    h *= 0xc4ceb9fe1a85ec53ULL;
-    h ^= h >> 33;
-    return h;
-}
-
 namespace {
 
 Vec3f vdiv(Vec3f a, Vec3f b) { return {a.x / b.x, a.y / b.y, a.z / b.z}; }

@@ -35,6 +35,7 @@
 #include "renderer/input/scene_desc.h"
 #include "renderer/shading/phase_function.h"
 #include "renderer/util/interaction.h"
+#include "renderer/util/random.h"
 #include "renderer/util/transform.h"
 #include "sampling/vecmath.h"
 
@@ -101,42 +102,12 @@ class Medium {
     std::string name;
 };
 
-/// A small PCG32 generator (O'Neill 2014; pbrt-v4 RNG) for the random numbers a medium walk
-/// draws past the sampler's dimensions (the second and later distance samples, event choices,
-/// the shadow ray's roulette).
-class Pcg32 {
-  public:
-    Pcg32(uint64_t seq_index, uint64_t seed) { set_sequence(seq_index, seed); }
-    void set_sequence(uint64_t seq_index, uint64_t seed) {
-        state_ = 0u;
-        inc_ = (seq_index << 1u) | 1u;
-        next_u32();
-        state_ += seed;
-        next_u32();
-    }
-    uint32_t next_u32() {
-        uint64_t old = state_;
-        state_ = old * 0x5851f42d4c957f2dULL + inc_;
-        uint32_t xorshifted = uint32_t(((old >> 18u) ^ old) >> 27u);
-        uint32_t rot = uint32_t(old >> 59u);
-        return (xorshifted >> rot) | (xorshifted << ((~rot + 1u) & 31));
-    }
-    /// Uniform in [0, 1).
-    float uniform() { return std::min(float(next_u32()) * 0x1p-32f, 0x1.fffffep-1f); }
-
-  private:
-    uint64_t state_ = 0, inc_ = 1;
-};
-
 /// exp(-d sigma) per channel; one exponential when the three coefficients are equal (grey
 /// media: the same bits, a third of the work).
 inline Rgb transmittance(Rgb sigma, float d) {
     if (sigma.r == sigma.g && sigma.g == sigma.b) return Rgb(std::exp(-d * sigma.r));
     return exp(-d * sigma);
 }
-
-/// 64-bit mixing of a float triple (ray origins and directions seed the shadow walk's Pcg32).
-uint64_t hash_floats(Vec3f a, Vec3f b);
 
 /// pbrt-v4 SampleT_maj: samples distances along `ray` (render space, any direction length) in
 /// `medium` up to t_max (in the ray's parameter), exponentially against each segment's

@@ -3,6 +3,8 @@
 // (LayeredBxDF::f, Sample_f and PDF), written for Tessera's types.
 #include "renderer/shading/layered_bxdf.h"
 
+#include "renderer/util/random.h"
+
 #include <cstring>
 #include <limits>
 
@@ -12,60 +14,10 @@ namespace tessera {
 
 namespace {
 
-/// The 64-bit finaliser of MurmurHash3 (Appleby 2008): a bijective mix of all input bits.
-constexpr uint64_t mix_bits_64(uint64_t v) {
-    v ^= v >> 33;
-    v *= 0xff51afd7ed558ccdull;
-    v ^= v >> 33;
-    v *= 0xc4ceb9fe1a85ec53ull;
-    v ^= v >> 33;
-    return v;
-}
-
-/// Hash of the bit patterns of `n` floats (order matters).
-uint64_t hash_floats(const float *v, int n) {
-    uint64_t h = 0x9e3779b97f4a7c15ull;
-    for (int i = 0; i < n; ++i) {
-        uint32_t bits;
-        std::memcpy(&bits, &v[i], sizeof bits);
-        h = mix_bits_64(h ^ (uint64_t(bits) + 0x632be59bd9b4e019ull * uint64_t(i + 1)));
-    }
-    return h;
-}
-
 uint64_t hash_dir(Vec3f w) {
     const float v[3] = {w.x, w.y, w.z};
     return hash_floats(v, 3);
 }
-
-/// PCG32 (O'Neill 2014, "PCG: A Family of Simple Fast Space-Efficient Statistically Good
-/// Algorithms for Random Number Generation"): 64-bit LCG state, XSH-RR output. Seeded like
-/// pbrt-v4's RNG(sequence index, offset). Lives on the stack of one BSDF call.
-class Pcg32 {
-  public:
-    Pcg32(uint64_t sequence, uint64_t offset) {
-        inc_ = (sequence << 1u) | 1u;
-        next();
-        state_ += offset;
-        next();
-    }
-    uint32_t next() {
-        const uint64_t old = state_;
-        state_ = old * 0x5851f42d4c957f2dull + inc_;
-        const uint32_t xorshifted = uint32_t(((old >> 18u) ^ old) >> 27u);
-        const uint32_t rot = uint32_t(old >> 59u);
-        return (xorshifted >> rot) | (xorshifted << ((32u - rot) & 31u));
-    }
-    /// Uniform in [0, 1), never 1.
-    float uniform() { return std::min(kOneMinusEpsilon, float(next()) * 0x1p-32f); }
-    Vec2f uniform2() {
-        const float a = uniform();
-        return {a, uniform()};
-    }
-
-  private:
-    uint64_t state_ = 0, inc_ = 1;
-};
 
 /// The generator's offset with LayeredBxdf::coherent_seed (any constant).
 constexpr uint64_t kCoherentOffset = 0x5bd1e9955bd1e995ull;
