@@ -954,7 +954,7 @@ std::unique_ptr<Scene> build_scene(const SceneDesc &d, const SceneOverrides &ov)
 
     sc->textures = std::make_unique<TextureSet>(d.textures);
     sc->features.textures = !d.textures.empty();
-    sc->features.image_textures = sc->textures->uses_texture_system();
+    sc->features.image_textures = sc->textures->has_image_maps();
     MaterialSet mats(d.materials, *sc->textures);
 
     sc->geometry = std::make_unique<Geometry>();

@@ -1,5 +1,6 @@
 // Texture classes, mappings and the image-map cache (see texture.h for the semantics).
 #include "renderer/shading/texture.h"
+#include "renderer/shading/mipmap.h"
 #include "renderer/util/image_io.h"
 #include "renderer/util/limits.h"
 #include "renderer/util/noise.h"
@@ -492,23 +493,35 @@ class ClampedSpectrumTexture final : public SpectrumTexture {
 };
 
 // ---------------------------------------------------------------------------------------------
-// Image maps through OpenImageIO's TextureSystem.
+// Image maps: an in-memory pyramid (MipMap), or OpenImageIO's TextureSystem for images too
+// large for one.
 
 struct ImageLookup {
+    std::shared_ptr<const MipMap> mip;  ///< the in-memory pyramid, or null for OIIO
     OIIO::TextureSystem *ts = nullptr;
     OIIO::TextureSystem::TextureHandle *handle = nullptr;
     OIIO::TextureOpt opt;
     int file_channels = 1;
     std::string filename;  ///< the source image (for describe())
 
-    /// Filtered lookup of `nch` channels at pbrt's (s, 1 - t). OIIO's t grows downwards
-    /// from the first image row, exactly like pbrt's flipped t, so no further flip is needed.
+    /// Filtered lookup of `nch` channels at pbrt's (s, 1 - t): the image's top row at t = 0.
     void lookup(const TexCoord2D &c, int nch, float *out) const {
+        if (mip) {
+            // pbrt-v4 passes the derivatives of the unflipped t (ImageTexture::Evaluate).
+            float v[MipMap::kMaxChannels] = {0, 0, 0, 0};
+            mip->filter({c.st.x, 1 - c.st.y}, {c.dsdx, c.dtdx}, {c.dsdy, c.dtdy}, v);
+            for (int i = 0; i < nch; ++i) out[i] = v[std::min(i, mip->channels() - 1)];
+            return;
+        }
+        // OIIO's t grows downwards from the first image row, exactly like pbrt's flipped t.
         // TextureOpt is passed by non-const reference; a copy keeps concurrent calls apart.
         OIIO::TextureOpt o = opt;
         if (!ts->texture(handle, nullptr, o, c.st.x, 1 - c.st.y, c.dsdx, -c.dtdx, c.dsdy, -c.dtdy,
                          nch, out))
             for (int i = 0; i < nch; ++i) out[i] = 0;
+    }
+    std::string describe() const {
+        return "\"" + filename + "\"" + (mip ? "" : " (OpenImageIO)");
     }
 };
 
@@ -523,7 +536,7 @@ class FloatImageTexture final : public FloatTexture {
         return invert_ ? std::max(0.f, 1 - v) : v;
     }
     std::string describe() const override {
-        return "imagemap \"" + img_.filename + "\" " + map_->describe() + " scale " + fmt(scale_);
+        return "imagemap " + img_.describe() + " " + map_->describe() + " scale " + fmt(scale_);
     }
 
   private:
@@ -546,7 +559,7 @@ class SpectrumImageTexture final : public SpectrumTexture {
         return clamp_zero(invert_ ? Rgb(1.f) - c : c);
     }
     std::string describe() const override {
-        return "imagemap \"" + img_.filename + "\" " + map_->describe() + " scale " + fmt(scale_);
+        return "imagemap " + img_.describe() + " " + map_->describe() + " scale " + fmt(scale_);
     }
 
   private:
@@ -617,11 +630,21 @@ bool is_float_format(const OIIO::TypeDesc &t) {
            t.basetype == OIIO::TypeDesc::DOUBLE;
 }
 
-/// A file OIIO's TextureSystem can read directly with linear texels, and its channel count.
+/// A decoded image map: linear texels in memory (width x height x channels, row 0 the top
+/// row), or, with `path` set, a file OIIO's TextureSystem reads directly with linear texels.
 struct PreparedImage {
     std::string path;
     int channels = 1;
+    int width = 0, height = 0;
+    std::vector<float> pixels;
 };
+
+PreparedImage texture_file(std::string path, int channels) {
+    PreparedImage p;
+    p.path = std::move(path);
+    p.channels = channels;
+    return p;
+}
 
 /// True for the 8-bit formats pbrt-v4 reads through stb_image (every extension but exr, png,
 /// pfm, hdr and qoi; tiff is not one of them: stb cannot read it, so Tessera's own rules apply).
@@ -635,11 +658,13 @@ bool read_by_pbrt_as_srgb_rgb(const std::string &path) {
     return false;
 }
 
-/// Linearises `path` into a cached mipmapped texture unless it already is a linear one.
+/// Linearises `path`: in memory when its pyramid takes at most `memory_budget` bytes, else
+/// into a cached mipmapped texture unless it already is a linear one.
 /// `scalar`: a float texture. `first_channel`: its lookups read channel 0 of a colour image
 /// (pbrt-v4's "point" and "ewa" filters, MIPMap::Texel<Float>) instead of the RGB average.
 PreparedImage prepare_image(const std::string &path, const std::string &encoding_param,
-                            const FileLoc &loc, bool scalar, bool first_channel) {
+                            const FileLoc &loc, bool scalar, bool first_channel,
+                            size_t memory_budget) {
     // Streamed: tiled mipmapped files are read by the TextureSystem tile by tile; the memory
     // check comes below, before a conversion reads the image whole.
     OpenedImage img = open_image(path, loc, "image", ImageRead::Streamed);
@@ -668,26 +693,33 @@ PreparedImage prepare_image(const std::string &path, const std::string &encoding
     // R, G and B, or the alpha channel of an RGBA image whose alpha is not all 1 (cut-out masks).
     const bool scalar_from_colour = scalar && spec.nchannels >= 3;
     const int out_channels = scalar_from_colour ? 1 : (spec.nchannels >= 3 ? 3 : 1);
-    if (enc.kind == Encoding::Linear && spec.tile_width > 0 && levels > 1 && !scalar_from_colour)
-        return {path, spec.nchannels};
+    const bool in_memory =
+        MipMap::pyramid_bytes(spec.width, spec.height, out_channels) <= memory_budget;
+    if (!in_memory && enc.kind == Encoding::Linear && spec.tile_width > 0 && levels > 1 &&
+        !scalar_from_colour)
+        return texture_file(path, spec.nchannels);
 
-    // The key hashes the file's bytes (not its name or date), so a rewritten but identical
-    // image, or the same image in two folders, shares one cache entry.
     // Which channel a scalar texture reads: alpha (when not all 1, and the format keeps it),
     // channel 0, or the RGB average.
     const bool keep_alpha = !stb_rules && !first_channel;
-    std::string key = "tessera-texcache-v2|" + std::to_string(file_hash(path, loc)) + "|" +
-                      enc.name() + "|" + std::to_string(out_channels) +
-                      (scalar_from_colour
-                           ? (first_channel ? "|scalar-ch0" : (keep_alpha ? "|scalar" : "|scalar-rgb"))
-                           : "");
     std::error_code ec;
-    char hex[17];
-    std::snprintf(hex, sizeof(hex), "%016llx", (unsigned long long)fnv1a(key));
-    fs::path dir = fs::temp_directory_path(ec) / "tessera-texcache";
-    fs::create_directories(dir, ec);
-    fs::path cached = dir / (fs::path(path).stem().string() + "-" + hex + ".exr");
-    if (fs::is_regular_file(cached, ec)) return {cached.string(), out_channels};
+    fs::path dir, cached;
+    if (!in_memory) {
+        // The key hashes the file's bytes (not its name or date), so a rewritten but identical
+        // image, or the same image in two folders, shares one cache entry.
+        std::string key =
+            "tessera-texcache-v2|" + std::to_string(file_hash(path, loc)) + "|" + enc.name() +
+            "|" + std::to_string(out_channels) +
+            (scalar_from_colour
+                 ? (first_channel ? "|scalar-ch0" : (keep_alpha ? "|scalar" : "|scalar-rgb"))
+                 : "");
+        char hex[17];
+        std::snprintf(hex, sizeof(hex), "%016llx", (unsigned long long)fnv1a(key));
+        dir = fs::temp_directory_path(ec) / "tessera-texcache";
+        fs::create_directories(dir, ec);
+        cached = dir / (fs::path(path).stem().string() + "-" + hex + ".exr");
+        if (fs::is_regular_file(cached, ec)) return texture_file(cached.string(), out_channels);
+    }
 
     // A header may claim any size: check before the conversion below reads it whole (tiled
     // mipmapped files, returned above, are streamed by the TextureSystem instead).
@@ -740,6 +772,14 @@ PreparedImage prepare_image(const std::string &path, const std::string &encoding
         if (enc.kind != Encoding::Linear)
             for (float &v : pixels) v = enc.decode(v);
     }
+    if (in_memory) {
+        PreparedImage out;
+        out.channels = out_channels;
+        out.width = roi.width();
+        out.height = roi.height();
+        out.pixels = std::move(pixels);
+        return out;
+    }
     OIIO::ImageBuf lin(out_spec);
     OIIO::ROI out_roi = lin.roi();
     lin.set_pixels(out_roi, OIIO::TypeDesc::FLOAT, pixels.data());
@@ -767,7 +807,7 @@ PreparedImage prepare_image(const std::string &path, const std::string &encoding
         if (!fs::is_regular_file(cached, ec))
             throw SceneError(loc, path + ": cannot create texture cache file " + cached.string());
     }
-    return {cached.string(), out_channels};
+    return texture_file(cached.string(), out_channels);
 }
 
 /// A relative file name against the main file's directory (pbrt-v4), falling back to the
@@ -965,8 +1005,27 @@ struct TextureSet::Builder {
             img.opt.interpmode = OIIO::TextureOpt::InterpBilinear;
         }
         const bool ch0 = filter == "point" || filter == "ewa" || filter == "EWA";
+        const size_t budget =
+            std::min(kMaxPyramidBytes,
+                     set.max_set_pyramid_bytes_ -
+                         std::min(set.max_set_pyramid_bytes_, set.pyramid_bytes_));
         PreparedImage prep = prepare_image(path, ps.get_string("encoding", ""), d.loc,
-                                           d.value_type == "float", ch0);
+                                           d.value_type == "float", ch0, budget);
+        ++set.image_maps_;
+        if (prep.path.empty()) {
+            const MipFilter mf = filter == "point"       ? MipFilter::Point
+                                 : filter == "trilinear" ? MipFilter::Trilinear
+                                 : (filter == "ewa" || filter == "EWA") ? MipFilter::Ewa
+                                                                        : MipFilter::Bilinear;
+            const MipWrap mw = w == OIIO::TextureOpt::WrapPeriodic ? MipWrap::Repeat
+                               : w == OIIO::TextureOpt::WrapBlack  ? MipWrap::Black
+                                                                   : MipWrap::Clamp;
+            img.mip = std::make_shared<const MipMap>(prep.width, prep.height, prep.channels,
+                                                     std::move(prep.pixels), mw, mf, max_aniso);
+            img.file_channels = prep.channels;
+            set.pyramid_bytes_ += img.mip->bytes();
+            return img;
+        }
         img.ts = texture_system();
         img.handle = img.ts->get_texture_handle(OIIO::ustring(prep.path));
         OIIO::ImageSpec spec;
@@ -978,7 +1037,8 @@ struct TextureSet::Builder {
     }
 };
 
-TextureSet::TextureSet(const std::vector<TextureDesc> &descs) {
+TextureSet::TextureSet(const std::vector<TextureDesc> &descs, size_t max_set_pyramid_bytes)
+    : max_set_pyramid_bytes_(max_set_pyramid_bytes) {
     for (const TextureDesc &d : descs) {
         bool is_float = d.value_type == "float";
         bool is_spectrum =

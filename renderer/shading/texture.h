@@ -13,8 +13,9 @@
 // and "planar" (v1, v2, udelta, vdelta); the last three use the inverse of the texture's
 // render_from_texture transform. 3D checkerboards use the same transform (point mapping).
 //
-// Image maps go through OpenImageIO's TextureSystem (mipmapped, filtered with the uv
-// derivatives); see TextureSet for how images are linearised and cached.
+// Image maps are decoded to linear texels and filtered with the uv derivatives through an
+// in-memory pyramid with pbrt-v4's lookups (renderer/shading/mipmap.h), or, for images too
+// large for one and for tiled mipmapped files, OpenImageIO's TextureSystem; see TextureSet.
 #pragma once
 
 #include <map>
@@ -78,13 +79,17 @@ float srgb_to_linear(float v);
 /// ("encoding": "sRGB" | "linear" | "gamma g"; default "sRGB" for 8/16-bit integer images and
 /// "linear" for half/float images, which are always linear; JPEG, TGA, BMP, GIF, PSD, PIC and
 /// PNM images are always sRGB and their alpha is dropped, as pbrt-v4's stb_image path does --
-/// another "encoding" warns) and written once as a tiled,
-/// mipmapped half/float OpenEXR texture (OIIO make_texture, box-filtered levels) in
+/// another "encoding" warns). The linear image becomes an in-memory MipMap (pbrt-v4's
+/// pyramid and its point, bilinear, trilinear and EWA lookups, "maxanisotropy" default 8) when
+/// its pyramid takes at most kMaxPyramidBytes and the set's pyramids together at most
+/// kMaxSetPyramidBytes. Larger images are written once as a tiled, mipmapped half/float
+/// OpenEXR texture (OIIO make_texture, box-filtered levels) in
 /// `<system temp dir>/tessera-texcache/`, keyed by a hash of the source file's bytes and the
-/// encoding, and reused by later runs (the folder may be deleted at any time). Lookups use pbrt's
-/// (s, 1 - t) v flip, "wrap" (repeat | black | clamp), "filter" (pbrt-v4 default "bilinear" =
-/// bilinear within one MIP level; "point", "trilinear", and "ewa" which maps to OIIO's anisotropic
-/// filter with "maxanisotropy", default 8), "scale" and "invert". A float image map of a
+/// encoding, reused by later runs (the folder may be deleted at any time) and streamed by
+/// OpenImageIO's TextureSystem, as are linear tiled mipmapped files ("ewa" maps to OIIO's
+/// anisotropic filter there). Lookups use pbrt's (s, 1 - t) v flip, "wrap" (repeat | black |
+/// clamp), "filter" (pbrt-v4 default "bilinear" = bilinear within one MIP level; "point",
+/// "trilinear", "ewa"), "scale" and "invert". A float image map of a
 /// one-channel image reads it; of a colour image, the average of the linear R, G, B, or the
 /// alpha channel (decoded like the colour channels, as pbrt-v4 does) when an RGBA image's alpha
 /// is not all 1 (pbrt-v4's MIPMap::Bilerp<Float>, the "bilinear" and "trilinear" filters); with
@@ -92,7 +97,7 @@ float srgb_to_linear(float v);
 /// image map reads RGB, or grey from 1 channel. Relative file names resolve against the main
 /// scene file's directory, then the declaring file's.
 ///
-/// The OpenImageIO TextureSystem is created only if the scene has an image map, and destroyed
+/// The OpenImageIO TextureSystem is created only if an image map needs it, and destroyed
 /// with the TextureSet.
 ///
 /// Thread-safety: construction and the *_param helpers (which may create constant textures)
@@ -101,7 +106,15 @@ float srgb_to_linear(float v);
 /// per-thread state internally).
 class TextureSet {
   public:
-    explicit TextureSet(const std::vector<TextureDesc> &descs);
+    /// Largest in-memory pyramid of one image map (a 4096 x 2048 RGB image's, 128 MiB).
+    static constexpr size_t kMaxPyramidBytes = size_t(128) << 20;
+    /// Largest sum of the in-memory pyramids of a set.
+    static constexpr size_t kMaxSetPyramidBytes = size_t(2) << 30;
+
+    /// `max_set_pyramid_bytes`: the in-memory pyramids' budget (0: every image map through
+    /// OpenImageIO).
+    explicit TextureSet(const std::vector<TextureDesc> &descs,
+                        size_t max_set_pyramid_bytes = kMaxSetPyramidBytes);
     ~TextureSet();
     TextureSet(const TextureSet &) = delete;
     TextureSet &operator=(const TextureSet &) = delete;
@@ -121,8 +134,13 @@ class TextureSet {
     const SpectrumTexture *spectrum_param(const ParamSet &ps, const std::string &name,
                                           std::optional<Rgb> def, bool unbounded);
 
-    /// True if an image map made this set create an OpenImageIO TextureSystem.
+    /// True if the set has an image map (an in-memory pyramid or an OpenImageIO texture).
+    bool has_image_maps() const { return image_maps_ > 0; }
+    /// True if an image map too large for an in-memory pyramid, or a tiled mipmapped file,
+    /// made this set create an OpenImageIO TextureSystem (texture.cpp, "Image maps").
     bool uses_texture_system() const { return oiio_ != nullptr; }
+    /// Bytes held by the in-memory image pyramids.
+    size_t pyramid_bytes() const { return pyramid_bytes_; }
     /// Number of textures built from descriptors (float + spectrum).
     size_t size() const { return floats_.size() + spectra_.size(); }
 
@@ -137,6 +155,9 @@ class TextureSet {
     std::map<std::string, const SpectrumTexture *> spectra_;
     std::map<const SpectrumTexture *, const SpectrumTexture *> clamped_;  ///< albedo wrappers
     std::unique_ptr<OiioState> oiio_;
+    size_t image_maps_ = 0;  ///< image maps built
+    size_t pyramid_bytes_ = 0;
+    size_t max_set_pyramid_bytes_ = kMaxSetPyramidBytes;
 };
 
 }  // namespace tessera

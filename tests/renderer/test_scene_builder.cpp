@@ -147,7 +147,7 @@ TEST_CASE("SceneFeatures: a plain scene has no optional features") {
     const SceneFeatures &f = sc->features;
     CHECK_FALSE(f.textures);
     CHECK_FALSE(f.image_textures);
-    CHECK_FALSE(sc->textures->uses_texture_system());
+    CHECK_FALSE(sc->textures->has_image_maps());
     CHECK_FALSE(f.specular);
     CHECK_FALSE(f.transmission);
     CHECK_FALSE(f.emissive_shapes);
@@ -171,7 +171,7 @@ Shape "trianglemesh" "point3 P" [ -1 -1 1  1 -1 1  0 1 1 ]
 )");
         CHECK(sc->features.textures);
         CHECK_FALSE(sc->features.image_textures);
-        CHECK_FALSE(sc->textures->uses_texture_system());
+        CHECK_FALSE(sc->textures->has_image_maps());
     }
     SUBCASE("image texture: texture system") {
         std::string path = output_dir() + "/scene_builder_tex.png";
@@ -185,7 +185,7 @@ Shape "trianglemesh" "point3 P" [ -1 -1 1  1 -1 1  0 1 1 ]
 )");
         CHECK(sc->features.textures);
         CHECK(sc->features.image_textures);
-        CHECK(sc->textures->uses_texture_system());
+        CHECK(sc->textures->has_image_maps());
     }
     SUBCASE("constant infinite light: environment without a map") {
         std::unique_ptr<Scene> sc = scene_from_string(R"(

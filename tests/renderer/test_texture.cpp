@@ -91,7 +91,7 @@ TEST_CASE("constant, scale and mix") {
         desc("mixdef", "float", "mix", {}),  // defaults: tex1 0, tex2 1, amount 0.5
     };
     TextureSet set(d);
-    CHECK_FALSE(set.uses_texture_system());
+    CHECK_FALSE(set.has_image_maps());
     CHECK(set.size() == d.size());
     TextureEvalContext c = at_uv(0.3f, 0.7f);
     CHECK(set.get_float("half")->evaluate(c) == 0.5f);
@@ -313,6 +313,12 @@ TEST_CASE("bad texture declarations") {
 }
 
 TEST_CASE("imagemap: sRGB linearisation, v flip, wrap modes, scale and invert") {
+    // The in-memory pyramid and, with no budget for one, OpenImageIO's TextureSystem (each
+    // subcase runs the whole test).
+    size_t budget = TextureSet::kMaxSetPyramidBytes;
+    SUBCASE("in-memory pyramid") {}
+    SUBCASE("OpenImageIO") { budget = 0; }
+    CAPTURE(budget);
     std::string png = test_png();
     std::vector<TextureDesc> d = {
         desc("img", "spectrum", "imagemap", {str("string", "filename", png)}),
@@ -330,8 +336,10 @@ TEST_CASE("imagemap: sRGB linearisation, v flip, wrap modes, scale and invert") 
         desc("point", "float", "imagemap",
              {str("string", "filename", png), str("string", "filter", "point")}),
     };
-    TextureSet set(d);
-    CHECK(set.uses_texture_system());
+    TextureSet set(d, budget);
+    CHECK(set.has_image_maps());
+    CHECK(set.uses_texture_system() == (budget == 0));
+    CHECK((set.pyramid_bytes() > 0) == (budget > 0));
     const SpectrumTexture *img = set.get_spectrum("img");
     // Texel centres: s = (i + 0.5) / 4; top row at v = 0.75 (pbrt looks up (s, 1 - v)).
     Rgb tl = img->evaluate(at_uv(0.125f, 0.75f));
@@ -403,10 +411,15 @@ TEST_CASE("imagemap: a large footprint averages a checkerboard image, from many 
     for (int y = 0; y < 64; ++y)
         for (int x = 0; x < 64; ++x) px[y * 64 + x] = ((x / 8 + y / 8) & 1) ? 255 : 0;
     std::string png = write_image("checker64.png", 64, 64, 1, OIIO::TypeDesc::UINT8, px);
+    size_t budget = TextureSet::kMaxSetPyramidBytes;
+    SUBCASE("in-memory pyramid") {}
+    SUBCASE("OpenImageIO") { budget = 0; }
+    CAPTURE(budget);
     for (const char *filter : {"bilinear", "trilinear", "ewa"}) {
         CAPTURE(filter);
         TextureSet set({desc("chk", "spectrum", "imagemap",
-                             {str("string", "filename", png), str("string", "filter", filter)})});
+                             {str("string", "filename", png), str("string", "filter", filter)})},
+                       budget);
         const SpectrumTexture *t = set.get_spectrum("chk");
         // Inside a square with a tiny footprint: exactly black or white (grey image -> rgb).
         Rgb white = t->evaluate(at_uv(12.f / 64, 1 - 4.f / 64, 1e-4f, 1e-4f));
