@@ -10,6 +10,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include "sampling/vecmath.h"
 
@@ -121,25 +122,25 @@ struct TrowbridgeReitz {
 
     /// Microfacet normal density D(wm) per unit projected area (PBRT eq. 9.16, anisotropic).
     /// Units: 1/sr. Zero for wm below the horizon.
+    /// For a unit wm, cos^4 theta (1 + tan^2 theta (cos^2 phi / ax^2 + sin^2 phi / ay^2))^2 =
+    /// (z^2 + x^2 / ax^2 + y^2 / ay^2)^2: the same density without the angles' square roots
+    /// and divisions.
     float d(Vec3f wm) const {
-        float c2 = cos2_theta(wm);
-        if (!(c2 > 0.f))
+        const float z2 = wm.z * wm.z;
+        if (!(z2 > 0.f))
             return 0.f;
-        float t2 = tan2_theta(wm);
-        if (std::isinf(t2))
-            return 0.f;
-        float c4 = c2 * c2;
-        float e = t2 * (sqr(cos_phi(wm) / alpha_x) + sqr(sin_phi(wm) / alpha_y));
-        return 1.f / (kPi * alpha_x * alpha_y * c4 * sqr(1.f + e));
+        const float q = z2 + sqr(wm.x / alpha_x) + sqr(wm.y / alpha_y);
+        return 1.f / (kPi * alpha_x * alpha_y * sqr(q));
     }
 
-    /// Smith's auxiliary function Lambda(w) (PBRT eq. 9.22).
+    /// Smith's auxiliary function Lambda(w) (PBRT eq. 9.22), with alpha^2 tan^2 theta =
+    /// (x^2 ax^2 + y^2 ay^2) / z^2 for a unit w; 0 on the horizon, as pbrt-v4 returns there.
     float lambda(Vec3f w) const {
-        float t2 = tan2_theta(w);
-        if (std::isinf(t2) || std::isnan(t2))
+        const float z2 = w.z * w.z;
+        const float a2t2 = (sqr(w.x * alpha_x) + sqr(w.y * alpha_y)) / z2;
+        if (!(a2t2 < std::numeric_limits<float>::infinity()))
             return 0.f;
-        float a2 = sqr(cos_phi(w) * alpha_x) + sqr(sin_phi(w) * alpha_y);
-        return 0.5f * (std::sqrt(1.f + a2 * t2) - 1.f);
+        return 0.5f * (std::sqrt(1.f + a2t2) - 1.f);
     }
 
     /// Smith masking G1(w) = 1 / (1 + Lambda(w)), in [0, 1].
