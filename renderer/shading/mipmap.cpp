@@ -7,6 +7,9 @@
 #include <stdexcept>
 #include <utility>
 
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
 namespace tessera {
 
 namespace {
@@ -79,26 +82,51 @@ inline bool wrap_coord(int &v, int n, MipWrap wrap) {
     return false;
 }
 
-/// Resamples rows (axis 0) or columns (axis 1) of a w x h x nch image to `new_res` texels.
+/// Resamples rows (axis 0) or columns (axis 1) of a w x h x nch image to `new_res` texels,
+/// rows in parallel.
 std::vector<float> resample_axis(const std::vector<float> &src, int w, int h, int nch, int axis,
                                  int new_res, MipWrap wrap) {
     const int old_res = axis == 0 ? w : h;
+    // The taps with their source addresses wrapped once (-1: black, weight dropped).
+    struct Tap {
+        int idx[4];
+        float w[4];
+    };
+    std::vector<Tap> taps(static_cast<size_t>(new_res));
     const std::vector<ResampleWeight> wt = resample_weights(old_res, new_res);
+    for (int i = 0; i < new_res; ++i)
+        for (int j = 0; j < 4; ++j) {
+            int v = wt[size_t(i)].first + j;
+            const bool in = wrap_coord(v, old_res, wrap);
+            taps[size_t(i)].idx[j] = in ? v : 0;
+            taps[size_t(i)].w[j] = in ? wt[size_t(i)].w[j] : 0.f;
+        }
     const int ow = axis == 0 ? new_res : w, oh = axis == 0 ? h : new_res;
-    std::vector<float> out(size_t(ow) * size_t(oh) * size_t(nch), 0.f);
-    for (int y = 0; y < oh; ++y)
-        for (int x = 0; x < ow; ++x) {
-            const ResampleWeight &r = wt[size_t(axis == 0 ? x : y)];
-            float *o = &out[(size_t(y) * size_t(ow) + size_t(x)) * size_t(nch)];
-            for (int j = 0; j < 4; ++j) {
-                int v = r.first + j;
-                if (!wrap_coord(v, old_res, wrap))
-                    continue;
-                const int sx = axis == 0 ? v : x, sy = axis == 0 ? y : v;
-                const float *s = &src[(size_t(sy) * size_t(w) + size_t(sx)) * size_t(nch)];
-                for (int c = 0; c < nch; ++c) o[c] += r.w[j] * s[c];
+    const size_t ch = size_t(nch), row_in = size_t(w) * ch, row_out = size_t(ow) * ch;
+    std::vector<float> out(size_t(oh) * row_out, 0.f);
+    tbb::parallel_for(tbb::blocked_range<int>(0, oh, 16), [&](const tbb::blocked_range<int> &r) {
+        for (int y = r.begin(); y < r.end(); ++y) {
+            float *o = &out[size_t(y) * row_out];
+            if (axis == 0) {
+                const float *s = &src[size_t(y) * row_in];
+                for (int x = 0; x < ow; ++x) {
+                    const Tap &t = taps[size_t(x)];
+                    for (size_t c = 0; c < ch; ++c)
+                        o[size_t(x) * ch + c] = t.w[0] * s[size_t(t.idx[0]) * ch + c] +
+                                                t.w[1] * s[size_t(t.idx[1]) * ch + c] +
+                                                t.w[2] * s[size_t(t.idx[2]) * ch + c] +
+                                                t.w[3] * s[size_t(t.idx[3]) * ch + c];
+                }
+            } else {
+                const Tap &t = taps[size_t(y)];
+                for (int j = 0; j < 4; ++j) {
+                    const float *s = &src[size_t(t.idx[j]) * row_in];
+                    const float wj = t.w[j];
+                    for (size_t k = 0; k < row_out; ++k) o[k] += wj * s[k];
+                }
             }
         }
+    });
     return out;
 }
 
@@ -164,7 +192,7 @@ MipMap::MipMap(int width, int height, int channels, std::vector<float> pixels, M
         next.w = std::max(1, src.w / 2);
         next.h = std::max(1, src.h / 2);
         next.px.resize(size_t(next.w) * size_t(next.h) * size_t(nch_));
-        for (int y = 0; y < next.h; ++y) {
+        tbb::parallel_for(0, next.h, [&](int y) {
             const int y0 = 2 * y, y1 = std::min(2 * y + 1, src.h - 1);
             for (int x = 0; x < next.w; ++x) {
                 const int x0 = 2 * x, x1 = std::min(2 * x + 1, src.w - 1);
@@ -176,7 +204,7 @@ MipMap::MipMap(int width, int height, int channels, std::vector<float> pixels, M
                 float *o = &next.px[(size_t(y) * size_t(next.w) + size_t(x)) * ch];
                 for (size_t k = 0; k < ch; ++k) o[k] = (a[k] + b[k] + c[k] + d[k]) * 0.25f;
             }
-        }
+        });
         levels_.push_back(std::move(next));
     }
 }

@@ -11,6 +11,7 @@
 #include <OpenImageIO/texture.h>
 
 #include <unistd.h>
+#include <array>
 #include <atomic>
 #include <cctype>
 #include <cstdio>
@@ -724,6 +725,16 @@ PreparedImage prepare_image(const std::string &path, const std::string &encoding
     // A header may claim any size: check before the conversion below reads it whole (tiled
     // mipmapped files, returned above, are streamed by the TextureSystem instead).
     img.check_read_whole();
+    // An 8-bit texel is one of 256 values: decode those once (pbrt-v4's sRGB table).
+    const bool eight_bit = spec.format.basetype == OIIO::TypeDesc::UINT8 &&
+                           spec.channelformats.empty() && enc.kind != Encoding::Linear;
+    std::array<float, 256> table{};
+    if (eight_bit)
+        for (int i = 0; i < 256; ++i) table[size_t(i)] = enc.decode(float(i) / 255.f);
+    const auto decode = [&](float v) {
+        return eight_bit ? table[size_t(std::clamp(int(v * 255.f + 0.5f), 0, 255))]
+                         : enc.decode(v);
+    };
     // Read without OIIO's default premultiplication by alpha: pbrt ignores alpha in image maps.
     OIIO::ImageSpec read_config;
     read_config.attribute("oiio:UnassociatedAlpha", 1);
@@ -757,11 +768,9 @@ PreparedImage prepare_image(const std::string &path, const std::string &encoding
             const float *px = &rgba[i * size_t(nin)];
             // Every channel of an integer image is decoded, alpha too: pbrt-v4's
             // Image::GetChannel runs the encoding on whichever channel it reads.
-            pixels[i] = use_alpha       ? enc.decode(px[3])
-                        : first_channel ? enc.decode(px[0])
-                                        : (enc.decode(px[0]) + enc.decode(px[1]) +
-                                           enc.decode(px[2])) /
-                                              3.f;
+            pixels[i] = use_alpha       ? decode(px[3])
+                        : first_channel ? decode(px[0])
+                                        : (decode(px[0]) + decode(px[1]) + decode(px[2])) / 3.f;
         }
     } else {
         roi.chbegin = 0;
@@ -770,7 +779,7 @@ PreparedImage prepare_image(const std::string &path, const std::string &encoding
         if (!src.get_pixels(roi, OIIO::TypeDesc::FLOAT, pixels.data()))
             img.fail(src.geterror());
         if (enc.kind != Encoding::Linear)
-            for (float &v : pixels) v = enc.decode(v);
+            for (float &v : pixels) v = decode(v);
     }
     if (in_memory) {
         PreparedImage out;
