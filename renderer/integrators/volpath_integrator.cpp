@@ -144,8 +144,8 @@ VolPathIntegrator::PathResult VolPathIntegrator::trace(const CameraRay &cray, in
             } else if (sc.geometry->occluded(sr.ray)) {
                 return;
             }
-            Rgb sigma_t;
-            if (sr.medium >= 0 && sc.media[size_t(sr.medium)]->constant_sigma_t(&sigma_t)) {
+            MediumProperties cmp;
+            if (sr.medium >= 0 && sc.media[size_t(sr.medium)]->constant_properties(&cmp)) {
                 // A homogeneous segment: ratio tracking against a majorant equal to sigma_t is
                 // all or nothing (the first collision zeroes it); its expectation given the
                 // ratios is the closed form, used instead (same mean, no noise): T_ray gets
@@ -153,7 +153,7 @@ VolPathIntegrator::PathResult VolPathIntegrator::trace(const CameraRay &cray, in
                 // as ratio tracking leaves them when no collision happens.
                 float d = (hit ? hit->t : sr.ray.t_max) * length(sr.ray.d);
                 if (std::isinf(d)) d = std::numeric_limits<float>::max();
-                const Rgb T = transmittance(sigma_t, d);
+                const Rgb T = transmittance(cmp.sigma_a + cmp.sigma_s, d);
                 const float th = T[h];
                 if (!(th > 0.f)) return;
                 T_ray *= T;
@@ -209,7 +209,25 @@ VolPathIntegrator::PathResult VolPathIntegrator::trace(const CameraRay &cray, in
         std::optional<SurfaceInteraction> hit = sc.geometry->intersect(ray.ray);
         ++res.rays;
         // --- the medium along the ray: delta tracking up to the surface (or infinity).
-        if (ray.medium >= 0) {
+        MediumProperties cmp;
+        if (ray.medium >= 0 && sc.media[size_t(ray.medium)]->constant_properties(&cmp) &&
+            cmp.sigma_s.is_black()) {
+            // A homogeneous medium that only absorbs: no path can scatter in it, so the
+            // expectation of delta tracking's estimate (absorbed with probability
+            // 1 - exp(-sigma_a d), or through with weight 1) given the path so far is the
+            // closed form, used instead (Rao-Blackwellization: the same mean, no noise, and
+            // no per-channel colour noise from the hero's absorption events). The path's
+            // probability does not depend on the channel here, so both MIS ratios stay;
+            // the emission along the segment integrates to Le (1 - exp(-sigma_a d)).
+            sampler.skip(3);  // the three dimensions delta tracking draws, kept in step
+            float d = (hit ? hit->t : kInfinity) * length(ray.ray.d);
+            if (std::isinf(d)) d = std::numeric_limits<float>::max();
+            const Rgb T = transmittance(cmp.sigma_a, d);
+            if (depth < max_depth_ && !cmp.Le.is_black())
+                L += beta * cmp.Le * (Rgb(1.f) - T) / avg(r_u);
+            beta *= T;
+            if (beta.is_black()) break;
+        } else if (ray.medium >= 0) {
             bool scattered = false, terminated = false;
             const float t_max = hit ? hit->t : kInfinity;
             const uint64_t seed0 = uint64_t(sampler.get_1d() * 4294967296.0);

@@ -172,8 +172,8 @@ class HomogeneousMedium final : public Medium {
         return MajorantIterator::single(0.f, t_max, mp_.sigma_a + mp_.sigma_s);
     }
     bool is_emissive() const override { return mp_.Le.max_value() > 0.f; }
-    bool constant_sigma_t(Rgb *sigma_t) const override {
-        *sigma_t = mp_.sigma_a + mp_.sigma_s;
+    bool constant_properties(MediumProperties *mp) const override {
+        *mp = mp_;
         return true;
     }
     std::string describe() const override {

@@ -93,9 +93,10 @@ class Medium {
     virtual MajorantIterator sample_ray(const Ray &ray, float t_max) const = 0;
     /// Whether any point emits (Le > 0 somewhere).
     virtual bool is_emissive() const = 0;
-    /// True for a medium whose sigma_t is the same everywhere (and is its majorant): then
-    /// `*sigma_t` is set, and transmittance along a segment is exp(-sigma_t d) in closed form.
-    virtual bool constant_sigma_t(Rgb * /*sigma_t*/) const { return false; }
+    /// True for a medium whose coefficients are the same everywhere (homogeneous; sigma_t is
+    /// then its own majorant): `*mp` is set, and transmittance along a segment is
+    /// exp(-sigma_t d) in closed form.
+    virtual bool constant_properties(MediumProperties * /*mp*/) const { return false; }
     /// One line for logs: type and main parameters.
     virtual std::string describe() const = 0;
     HgPhaseFunction phase;
