@@ -32,7 +32,7 @@ packages=(
   build-essential cmake pkg-config
   libembree-dev libtbb-dev
   libopenimageio-dev openimageio-tools libopenexr-dev libopencolorio-dev
-  libtinyobjloader-dev nlohmann-json3-dev libcli11-dev zlib1g-dev
+  libtinyobjloader-dev nlohmann-json3-dev libcli11-dev zlib1g-dev libpng-dev
   # Distributed rendering (`mpirun -np N tessera render`): CMake builds MPI in when it finds it.
   libopenmpi-dev openmpi-bin
 )

@@ -1,7 +1,5 @@
 #include "renderer/app/checkpoint.h"
 
-#include <OpenImageIO/imageio.h>
-
 #include <algorithm>
 #include <cmath>
 #include <cstring>
@@ -134,7 +132,7 @@ void unpack(const uint32_t *w, PixelData &p, sampling::Film::AovData &aov,
 }
 
 /// The AOVs whose channels the file has; part of an AOV's channels is a damaged file.
-sampling::AovSet aovs_in(const OIIO::ImageSpec &spec, const std::string &path) {
+sampling::AovSet aovs_in(const imageio::ImageSpec &spec, const std::string &path) {
     sampling::AovSet set;
     for (sampling::Aov a : sampling::kAllAovs) {
         size_t found = 0;
@@ -156,12 +154,15 @@ void write_checkpoint(const std::string &path, const sampling::Film &film,
                       const CheckpointState &state) {
     const std::vector<Channel> layout = channel_layout(film.aovs(), film.keeps_prefix());
     const int nch = int(layout.size());
-    OIIO::ImageSpec spec(int(film.width()), int(film.height()), nch, OIIO::TypeDesc::FLOAT);
-    spec.channelnames.clear();
-    spec.channelformats.clear();
+    imageio::ImageSpec spec;
+    spec.width = int(film.width());
+    spec.height = int(film.height());
+    spec.nchannels = nch;
+    spec.format = imageio::PixelType::Float;
     for (const Channel &c : layout) {
         spec.channelnames.push_back(c.name);
-        spec.channelformats.push_back(c.is_float ? OIIO::TypeDesc::FLOAT : OIIO::TypeDesc::UINT);
+        spec.channelformats.push_back(c.is_float ? imageio::PixelType::Float
+                                                 : imageio::PixelType::UInt32);
     }
     spec.attribute("compression", "zip");
     spec.attribute("tessera:format", kFormatTag);
@@ -178,22 +179,17 @@ void write_checkpoint(const std::string &path, const sampling::Film &film,
         pack(px[i], film.raw_aovs(), film.raw_prefix(), i, &words[i * size_t(nch)]);
 
     write_atomically(path, [&](const std::string &tmp) {
-        auto out = OIIO::ImageOutput::create("exr");
-        if (!out || !out->open(tmp, spec))
-            throw std::runtime_error(path + ": cannot write checkpoint: " + OIIO::geterror());
-        // TypeDesc::UNKNOWN: the buffer is in the file's native per-channel formats.
-        if (!out->write_image(OIIO::TypeDesc::UNKNOWN, words.data())) {
-            std::string err = out->geterror();
-            out->close();
+        // PixelType::Unknown: the buffer is in the file's native per-channel formats.
+        std::string err;
+        if (!imageio::backend().write("exr", tmp, spec, imageio::PixelType::Unknown,
+                                      words.data(), &err))
             throw std::runtime_error(path + ": cannot write checkpoint: " + err);
-        }
-        if (!out->close()) throw std::runtime_error(path + ": cannot close checkpoint");
     });
 }
 
 sampling::AovSet checkpoint_aovs(const std::string &path) {
     OpenedImage img = open_image(path, FileLoc{path, 0}, "checkpoint");
-    const OIIO::ImageSpec &spec = img.spec;
+    const imageio::ImageSpec &spec = img.spec;
     if (spec.get_string_attribute("tessera:format") != kFormatTag)
         throw SceneError(path + ":0: not a Tessera checkpoint");
     return aovs_in(spec, path);
@@ -201,7 +197,7 @@ sampling::AovSet checkpoint_aovs(const std::string &path) {
 
 CheckpointState read_checkpoint(const std::string &path, sampling::Film &film) {
     OpenedImage img = open_image(path, FileLoc{path, 0}, "checkpoint");
-    const OIIO::ImageSpec &spec = img.spec;
+    const imageio::ImageSpec &spec = img.spec;
     if (spec.get_string_attribute("tessera:format") != kFormatTag)
         throw SceneError(path + ":0: not a Tessera checkpoint");
     const sampling::AovSet aovs = aovs_in(spec, path);
@@ -224,7 +220,7 @@ CheckpointState read_checkpoint(const std::string &path, sampling::Film &film) {
     // Every channel is 4 bytes: read native data and reorder.
     std::vector<uint32_t> file_words(size_t(spec.width) * size_t(spec.height) *
                                      size_t(spec.nchannels));
-    if (!img.in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::UNKNOWN, file_words.data()))
+    if (!img.in->read_image(0, spec.nchannels, imageio::PixelType::Unknown, file_words.data()))
         img.fail(img.in->geterror());
     std::vector<PixelData> px(size_t(spec.width) * size_t(spec.height));
     sampling::Film::AovData aov;

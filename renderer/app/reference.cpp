@@ -1,13 +1,14 @@
 // Reference images: scene content hashes, the reference cache, checks of given references.
 #include "renderer/app/reference.h"
 
-#include <OpenImageIO/hash.h>
 
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -29,12 +30,40 @@ namespace fs = std::filesystem;
 
 namespace {
 
+/// MurmurHash3's 64-bit finaliser (Appleby): every input bit reaches every output bit.
+uint64_t fmix64(uint64_t k) {
+    k ^= k >> 33;
+    k *= 0xff51afd7ed558ccdULL;
+    k ^= k >> 33;
+    k *= 0xc4ceb9fe1a85ec53ULL;
+    k ^= k >> 33;
+    return k;
+}
+
+/// A 128-bit content fingerprint (a cache key, not a cryptographic hash): two FNV-1a lanes of
+/// different offset bases over 8-byte words, each finalised with the length and the other.
 std::string hex128(const std::string &bytes) {
-    OIIO::farmhash::uint128_t h = OIIO::farmhash::Fingerprint128(bytes.data(), bytes.size());
+    uint64_t a = 0xcbf29ce484222325ULL, b = 0x84222325cbf29ce4ULL;
+    constexpr uint64_t kPrime = 0x100000001b3ULL;
+    size_t i = 0;
+    for (; i + 8 <= bytes.size(); i += 8) {
+        uint64_t w;
+        std::memcpy(&w, bytes.data() + i, 8);
+        a = (a ^ w) * kPrime;
+        a = (a << 31) | (a >> 33);  // the rotations carry high bits down
+        b = (b ^ (w + 0x9e3779b97f4a7c15ULL)) * kPrime;
+        b = (b << 29) | (b >> 35);
+    }
+    for (; i < bytes.size(); ++i) {
+        const uint64_t c = static_cast<unsigned char>(bytes[i]);
+        a = (a ^ c) * kPrime;
+        b = (b ^ (c + 0x9e3779b97f4a7c15ULL)) * kPrime;
+    }
+    const uint64_t n = bytes.size();
+    const uint64_t hi = fmix64(a ^ fmix64(b + n)), lo = fmix64(b ^ fmix64(a ^ n));
     char buf[40];
-    std::snprintf(buf, sizeof buf, "%016llx%016llx",
-                  (unsigned long long)OIIO::farmhash::Uint128High64(h),
-                  (unsigned long long)OIIO::farmhash::Uint128Low64(h));
+    std::snprintf(buf, sizeof buf, "%016llx%016llx", (unsigned long long)hi,
+                  (unsigned long long)lo);
     return buf;
 }
 

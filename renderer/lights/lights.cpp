@@ -4,7 +4,6 @@
 #include "renderer/util/image_io.h"
 #include "renderer/util/limits.h"
 
-#include <OpenImageIO/imageio.h>
 
 #include <algorithm>
 #include <cmath>
@@ -777,7 +776,7 @@ std::vector<Rgb> read_rgb_image(const std::string &path, const FileLoc &loc, int
                                 int *height) {
     // Empty images, and sizes from a header that cannot be allocated, are rejected here.
     OpenedImage img = open_image(path, loc, "image");
-    const OIIO::ImageSpec &spec = img.spec;
+    const imageio::ImageSpec &spec = img.spec;
     const int w = spec.width, h = spec.height, nc = spec.nchannels;
     const std::vector<float> buf = img.read_floats(0, nc);
 
@@ -793,8 +792,8 @@ std::vector<Rgb> read_rgb_image(const std::string &path, const FileLoc &loc, int
 
     // Integer formats hold display-encoded values unless the file says linear.
     std::string cs = spec.get_string_attribute("oiio:ColorSpace");
-    bool encoded = (spec.format.basetype == OIIO::TypeDesc::UINT8 ||
-                    spec.format.basetype == OIIO::TypeDesc::UINT16) &&
+    bool encoded = (spec.format == imageio::PixelType::UInt8 ||
+                    spec.format == imageio::PixelType::UInt16) &&
                    cs != "Linear" && cs != "linear" && cs != "scene_linear";
 
     std::vector<Rgb> out(size_t(w) * size_t(h));
@@ -828,7 +827,7 @@ Rgb pbrt_illuminance_weights(const std::string &path, const FileLoc &loc) {
     const Rgb lum(0.2126f, 0.7152f, 0.0722f);
     // The caller has read the image already: only its header is needed here.
     OpenedImage img = open_image(path, loc, "image", ImageRead::Streamed);
-    if (std::string(img.in->format_name()) != "openexr") return lum;
+    if (img.spec.format_name != "openexr") return lum;
     std::vector<std::string> names = img.spec.channelnames;
     std::sort(names.begin(), names.end());
     Rgb w(0.f);

@@ -1,6 +1,5 @@
 #include "renderer/shading/material.h"
 
-#include <OpenImageIO/imagebuf.h>
 
 #include <cstring>
 #include <filesystem>
@@ -454,25 +453,14 @@ Vec3f NormalMapImage::lookup(Vec2f uv) const {
 
 std::shared_ptr<const NormalMapImage> NormalMapImage::load(const std::string &path,
                                                            const FileLoc &loc) {
-    // The header is checked (size, memory) before the ImageBuf below allocates the pixels.
-    const OpenedImage checked = open_image(path, loc, "normalmap");
-    if (checked.spec.nchannels < 3) throw SceneError(loc, "normalmap \"" + path + "\" needs RGB");
-    OIIO::ImageBuf buf(path);
-    if (!buf.read(0, 0, true, OIIO::TypeDesc::FLOAT)) checked.fail(buf.geterror());
-    const OIIO::ImageSpec &spec = buf.spec();
-    if (spec.nchannels < 3 || spec.width != checked.spec.width ||
-        spec.height != checked.spec.height)
-        checked.fail("the file changed while it was read");
+    // The header is checked (size, memory) before any pixel is allocated.
+    OpenedImage file = open_image(path, loc, "normalmap");
+    if (file.spec.nchannels < 3) throw SceneError(loc, "normalmap \"" + path + "\" needs RGB");
     auto img = std::make_shared<NormalMapImage>();
-    img->width = spec.width;
-    img->height = spec.height;
-    img->rgb.resize(size_t(spec.width) * size_t(spec.height) * 3);
-    OIIO::ROI roi = buf.roi();
-    roi.chbegin = 0;
-    roi.chend = 3;
+    img->width = file.spec.width;
+    img->height = file.spec.height;
     // Linear: the texel values are vector components, not colours.
-    if (!buf.get_pixels(roi, OIIO::TypeDesc::FLOAT, img->rgb.data()))
-        checked.fail(buf.geterror());
+    img->rgb = file.read_floats(0, 3);
     return img;
 }
 

@@ -5,11 +5,6 @@
 #include "renderer/util/limits.h"
 #include "renderer/util/noise.h"
 
-#include <OpenImageIO/imagebuf.h>
-#include <OpenImageIO/imagebufalgo.h>
-#include <OpenImageIO/imageio.h>
-#include <OpenImageIO/texture.h>
-
 #include <unistd.h>
 #include <array>
 #include <atomic>
@@ -30,10 +25,7 @@ float srgb_to_linear(float v) {
 }
 
 struct TextureSet::OiioState {
-    OIIO::TextureSystem *ts = nullptr;
-    ~OiioState() {
-        if (ts) OIIO::TextureSystem::destroy(ts);
-    }
+    std::unique_ptr<imageio::TextureSystem> ts;
 };
 
 namespace {
@@ -499,9 +491,9 @@ class ClampedSpectrumTexture final : public SpectrumTexture {
 
 struct ImageLookup {
     std::shared_ptr<const MipMap> mip;  ///< the in-memory pyramid, or null for OIIO
-    OIIO::TextureSystem *ts = nullptr;
-    OIIO::TextureSystem::TextureHandle *handle = nullptr;
-    OIIO::TextureOpt opt;
+    const imageio::TextureSystem *ts = nullptr;
+    void *handle = nullptr;
+    imageio::TextureOptions opt;
     int file_channels = 1;
     std::string filename;  ///< the source image (for describe())
 
@@ -515,10 +507,8 @@ struct ImageLookup {
             return;
         }
         // OIIO's t grows downwards from the first image row, exactly like pbrt's flipped t.
-        // TextureOpt is passed by non-const reference; a copy keeps concurrent calls apart.
-        OIIO::TextureOpt o = opt;
-        if (!ts->texture(handle, nullptr, o, c.st.x, 1 - c.st.y, c.dsdx, -c.dtdx, c.dsdy, -c.dtdy,
-                         nch, out))
+        if (!ts->texture(handle, opt, c.st.x, 1 - c.st.y, c.dsdx, -c.dtdx, c.dsdy, -c.dtdy, nch,
+                         out))
             for (int i = 0; i < nch; ++i) out[i] = 0;
     }
     std::string describe() const {
@@ -626,11 +616,6 @@ uint64_t file_hash(const std::string &path, const FileLoc &loc) {
     return h;
 }
 
-bool is_float_format(const OIIO::TypeDesc &t) {
-    return t.basetype == OIIO::TypeDesc::HALF || t.basetype == OIIO::TypeDesc::FLOAT ||
-           t.basetype == OIIO::TypeDesc::DOUBLE;
-}
-
 /// A decoded image map: linear texels in memory (width x height x channels, row 0 the top
 /// row), or, with `path` set, a file OIIO's TextureSystem reads directly with linear texels.
 struct PreparedImage {
@@ -668,14 +653,12 @@ PreparedImage prepare_image(const std::string &path, const std::string &encoding
                             size_t memory_budget) {
     // Streamed: tiled mipmapped files are read by the TextureSystem tile by tile; the memory
     // check comes below, before a conversion reads the image whole.
-    OpenedImage img = open_image(path, loc, "image", ImageRead::Streamed);
-    const OIIO::ImageSpec spec = img.spec;
-    int levels = 1;
-    while (img.in->seek_subimage(0, levels)) ++levels;
-    img.in->close();
-    img.in.reset();
+    // Colour as stored, not premultiplied by alpha: pbrt ignores alpha in image maps.
+    OpenedImage img = open_image(path, loc, "image", ImageRead::Streamed, true);
+    const imageio::ImageSpec &spec = img.spec;
+    const int levels = spec.mip_levels;
 
-    const bool float_image = is_float_format(spec.format);
+    const bool float_image = imageio::is_float(spec.format);
     Encoding enc = parse_encoding(
         encoding_param.empty() ? (float_image ? "linear" : "sRGB") : encoding_param, loc);
     if (float_image && enc.kind != Encoding::Linear) {
@@ -726,7 +709,7 @@ PreparedImage prepare_image(const std::string &path, const std::string &encoding
     // mipmapped files, returned above, are streamed by the TextureSystem instead).
     img.check_read_whole();
     // An 8-bit texel is one of 256 values: decode those once (pbrt-v4's sRGB table).
-    const bool eight_bit = spec.format.basetype == OIIO::TypeDesc::UINT8 &&
+    const bool eight_bit = spec.format == imageio::PixelType::UInt8 &&
                            spec.channelformats.empty() && enc.kind != Encoding::Linear;
     std::array<float, 256> table{};
     if (eight_bit)
@@ -735,27 +718,11 @@ PreparedImage prepare_image(const std::string &path, const std::string &encoding
         return eight_bit ? table[size_t(std::clamp(int(v * 255.f + 0.5f), 0, 255))]
                          : enc.decode(v);
     };
-    // Read without OIIO's default premultiplication by alpha: pbrt ignores alpha in image maps.
-    OIIO::ImageSpec read_config;
-    read_config.attribute("oiio:UnassociatedAlpha", 1);
-    OIIO::ImageBuf src(path, 0, 0, nullptr, &read_config);
-    if (!src.read(0, 0, true, OIIO::TypeDesc::FLOAT)) img.fail(src.geterror());
-    OIIO::ImageSpec out_spec = src.spec();
-    out_spec.nchannels = out_channels;
-    out_spec.channelformats.clear();
-    out_spec.default_channel_names();
-    out_spec.alpha_channel = -1;
-    out_spec.z_channel = -1;
-    out_spec.set_format(OIIO::TypeDesc::FLOAT);
-    OIIO::ROI roi = src.roi();
+    const size_t npixels = size_t(spec.width) * size_t(spec.height);
     std::vector<float> pixels;
     if (scalar_from_colour) {
         const int nin = std::min(spec.nchannels, 4);
-        roi.chbegin = 0;
-        roi.chend = nin;
-        std::vector<float> rgba(size_t(roi.npixels()) * size_t(nin));
-        if (!src.get_pixels(roi, OIIO::TypeDesc::FLOAT, rgba.data()))
-            img.fail(src.geterror());
+        const std::vector<float> rgba = img.read_floats(0, nin);
         bool use_alpha = false;
         if (nin == 4 && keep_alpha)
             for (size_t i = 3; i < rgba.size(); i += 4)
@@ -763,7 +730,7 @@ PreparedImage prepare_image(const std::string &path, const std::string &encoding
                     use_alpha = true;
                     break;
                 }
-        pixels.resize(size_t(roi.npixels()));
+        pixels.resize(npixels);
         for (size_t i = 0; i < pixels.size(); ++i) {
             const float *px = &rgba[i * size_t(nin)];
             // Every channel of an integer image is decoded, alpha too: pbrt-v4's
@@ -773,43 +740,31 @@ PreparedImage prepare_image(const std::string &path, const std::string &encoding
                                         : (decode(px[0]) + decode(px[1]) + decode(px[2])) / 3.f;
         }
     } else {
-        roi.chbegin = 0;
-        roi.chend = out_channels;
-        pixels.resize(size_t(roi.npixels()) * size_t(out_channels));
-        if (!src.get_pixels(roi, OIIO::TypeDesc::FLOAT, pixels.data()))
-            img.fail(src.geterror());
+        pixels = img.read_floats(0, out_channels);
         if (enc.kind != Encoding::Linear)
             for (float &v : pixels) v = decode(v);
     }
     if (in_memory) {
         PreparedImage out;
         out.channels = out_channels;
-        out.width = roi.width();
-        out.height = roi.height();
+        out.width = spec.width;
+        out.height = spec.height;
         out.pixels = std::move(pixels);
         return out;
     }
-    OIIO::ImageBuf lin(out_spec);
-    OIIO::ROI out_roi = lin.roi();
-    lin.set_pixels(out_roi, OIIO::TypeDesc::FLOAT, pixels.data());
-
-    OIIO::ImageSpec config;
-    config.tile_width = 64;
-    config.tile_height = 64;
-    config.tile_depth = 1;
     // 8/16-bit sources become half (11-bit mantissa, finer than an 8-bit step); float stays.
-    config.set_format(float_image && spec.format.basetype != OIIO::TypeDesc::HALF
-                          ? OIIO::TypeDesc::FLOAT
-                          : OIIO::TypeDesc::HALF);
-    config.attribute("maketx:filtername", "box");
+    const imageio::PixelType stored = float_image && spec.format != imageio::PixelType::Half
+                                          ? imageio::PixelType::Float
+                                          : imageio::PixelType::Half;
     // Write under a unique name, then rename: another process may build the same entry.
     static std::atomic<int> counter{0};
     fs::path tmp = dir / (cached.stem().string() + ".tmp" + std::to_string(::getpid()) + "_" +
                           std::to_string(counter++) + ".exr");
-    if (!OIIO::ImageBufAlgo::make_texture(OIIO::ImageBufAlgo::MakeTxTexture, lin, tmp.string(),
-                                          config))
+    std::string err;
+    if (!imageio::backend().make_texture(tmp.string(), spec.width, spec.height, out_channels,
+                                         pixels.data(), stored, &err))
         throw SceneError(loc, path + ": cannot write the mipmapped texture " + tmp.string() + ": " +
-                                  OIIO::geterror());
+                                  err);
     fs::rename(tmp, cached, ec);
     if (ec) {
         fs::remove(tmp, ec);
@@ -956,15 +911,19 @@ struct TextureSet::Builder {
     }
 
     /// The set's TextureSystem, created with the first image map.
-    OIIO::TextureSystem *texture_system() {
+    imageio::TextureSystem *texture_system() {
         if (!set.oiio_) {
-            set.oiio_ = std::make_unique<OiioState>();
-            // A private (unshared) system: its cache dies with the TextureSet.
-            set.oiio_->ts = OIIO::TextureSystem::create(false);
-            // NOTE: files are tiled and mipmapped by prepare_image, so no automip is needed.
-            set.oiio_->ts->attribute("max_memory_MB", 1024.f);
+            auto state = std::make_unique<OiioState>();
+            // A private (unshared) system: its cache dies with the TextureSet. Files are tiled
+            // and mipmapped by prepare_image, so no automip is needed.
+            try {
+                state->ts = imageio::backend().texture_system(1024.f);
+            } catch (const std::runtime_error &e) {
+                throw SceneError(d.loc, e.what());
+            }
+            set.oiio_ = std::move(state);
         }
-        return set.oiio_->ts;
+        return set.oiio_->ts.get();
     }
 
     ImageLookup image(const ParamSet &ps) {
@@ -980,16 +939,17 @@ struct TextureSet::Builder {
         ImageLookup img;
         img.filename = path;
         std::string wrap = ps.get_string("wrap", "repeat");
-        OIIO::TextureOpt::Wrap w;
+        using Opt = imageio::TextureOptions;
+        Opt::Wrap w;
         if (wrap == "repeat") {
-            w = OIIO::TextureOpt::WrapPeriodic;
+            w = Opt::Wrap::Periodic;
         } else if (wrap == "black") {
-            w = OIIO::TextureOpt::WrapBlack;
+            w = Opt::Wrap::Black;
         } else if (wrap == "clamp") {
-            w = OIIO::TextureOpt::WrapClamp;
+            w = Opt::Wrap::Clamp;
         } else if (wrap == "octahedralsphere") {
             warn(d.loc, "wrap mode \"octahedralsphere\" is not supported; using \"clamp\"");
-            w = OIIO::TextureOpt::WrapClamp;
+            w = Opt::Wrap::Clamp;
         } else {
             throw SceneError(d.loc, "imagemap: wrap mode \"" + wrap + "\" unknown");
         }
@@ -998,20 +958,20 @@ struct TextureSet::Builder {
         float max_aniso = ps.get_float("maxanisotropy", 8.f);
         img.opt.anisotropic = std::max(1, int(max_aniso));
         if (filter == "point") {
-            img.opt.mipmode = OIIO::TextureOpt::MipModeOneLevel;
-            img.opt.interpmode = OIIO::TextureOpt::InterpClosest;
+            img.opt.mip = Opt::Mip::OneLevel;
+            img.opt.interp = Opt::Interp::Closest;
         } else if (filter == "trilinear") {
-            img.opt.mipmode = OIIO::TextureOpt::MipModeTrilinear;
-            img.opt.interpmode = OIIO::TextureOpt::InterpBilinear;
+            img.opt.mip = Opt::Mip::Trilinear;
+            img.opt.interp = Opt::Interp::Bilinear;
         } else if (filter == "ewa" || filter == "EWA") {
             // NOTE: OIIO's anisotropic filter stands in for pbrt's EWA (both elliptical).
-            img.opt.mipmode = OIIO::TextureOpt::MipModeAniso;
-            img.opt.interpmode = OIIO::TextureOpt::InterpBilinear;
+            img.opt.mip = Opt::Mip::Aniso;
+            img.opt.interp = Opt::Interp::Bilinear;
         } else {
             if (filter != "bilinear")
                 warn(d.loc, "imagemap: filter \"" + filter + "\" unknown; using \"bilinear\"");
-            img.opt.mipmode = OIIO::TextureOpt::MipModeOneLevel;
-            img.opt.interpmode = OIIO::TextureOpt::InterpBilinear;
+            img.opt.mip = Opt::Mip::OneLevel;
+            img.opt.interp = Opt::Interp::Bilinear;
         }
         const bool ch0 = filter == "point" || filter == "ewa" || filter == "EWA";
         const size_t budget =
@@ -1026,8 +986,8 @@ struct TextureSet::Builder {
                                  : filter == "trilinear" ? MipFilter::Trilinear
                                  : (filter == "ewa" || filter == "EWA") ? MipFilter::Ewa
                                                                         : MipFilter::Bilinear;
-            const MipWrap mw = w == OIIO::TextureOpt::WrapPeriodic ? MipWrap::Repeat
-                               : w == OIIO::TextureOpt::WrapBlack  ? MipWrap::Black
+            const MipWrap mw = w == Opt::Wrap::Periodic ? MipWrap::Repeat
+                               : w == Opt::Wrap::Black  ? MipWrap::Black
                                                                    : MipWrap::Clamp;
             img.mip = std::make_shared<const MipMap>(prep.width, prep.height, prep.channels,
                                                      std::move(prep.pixels), mw, mf, max_aniso);
@@ -1035,13 +995,13 @@ struct TextureSet::Builder {
             set.pyramid_bytes_ += img.mip->bytes();
             return img;
         }
-        img.ts = texture_system();
-        img.handle = img.ts->get_texture_handle(OIIO::ustring(prep.path));
-        OIIO::ImageSpec spec;
-        if (!img.handle || !img.ts->get_imagespec(img.handle, nullptr, 0, spec))
+        imageio::TextureSystem *ts = texture_system();
+        std::string err;
+        img.handle = ts->handle(prep.path, &img.file_channels, &err);
+        if (!img.handle)
             throw SceneError(d.loc, path + ": texture system cannot read " + prep.path + ": " +
-                                        img.ts->geterror());
-        img.file_channels = spec.nchannels;
+                                        err);
+        img.ts = ts;
         return img;
     }
 };

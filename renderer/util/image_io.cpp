@@ -1,8 +1,15 @@
-// Image files through OpenImageIO: multilayer EXR, 8-bit display images, reading back.
+// Image files: multilayer EXR (OpenEXR), 8-bit display images (libpng), reading back
+// (OpenImageIO through the image module, renderer/util/image_backend.h).
 #include "renderer/util/image_io.h"
 
-#include <OpenImageIO/imageio.h>
+#include <OpenEXR/ImfChannelList.h>
+#include <OpenEXR/ImfFrameBuffer.h>
+#include <OpenEXR/ImfHeader.h>
+#include <OpenEXR/ImfOutputFile.h>
+#include <OpenEXR/ImfStringAttribute.h>
+#include <Imath/half.h>
 #include <fcntl.h>
+#include <png.h>
 #include <signal.h>
 #include <sys/statvfs.h>
 #include <unistd.h>
@@ -14,6 +21,7 @@
 #include <fstream>
 #include <stdexcept>
 #include <system_error>
+#include <thread>
 
 #include "renderer/util/limits.h"
 #include "renderer/util/error.h"
@@ -22,34 +30,92 @@ namespace tessera {
 namespace {
 
 namespace fs = std::filesystem;
-using OIIO::ImageInput;
-using OIIO::ImageOutput;
-using OIIO::ImageSpec;
-using OIIO::TypeDesc;
+using imageio::ImageSpec;
+using imageio::PixelType;
 
-// The file format OIIO should use: from the final path's extension, since the temporary's
-// name ends in ".tmp-<pid>".
+// The file format the image module should use: from the final path's extension, since the
+// temporary's name ends in ".tmp-<pid>".
 std::string format_for(const std::string &path) {
     std::string ext = fs::path(path).extension().string();
     if (ext.size() < 2) throw std::runtime_error(path + ": no file extension to pick a format");
     return ext.substr(1);
 }
 
-// Writes interleaved pixels with OIIO; throws std::runtime_error with OIIO's message.
-void write_with_oiio(const std::string &final_path, const std::string &file, const ImageSpec &spec,
-                     TypeDesc data_type, const void *data) {
-    auto out = ImageOutput::create(format_for(final_path));
-    if (!out)
-        throw std::runtime_error(final_path + ": no image writer: " + OIIO::geterror());
-    if (!out->open(file, spec))
-        throw std::runtime_error(final_path + ": cannot open for writing: " + out->geterror());
-    if (!out->write_image(data_type, data)) {
-        std::string err = out->geterror();
-        out->close();
-        throw std::runtime_error(final_path + ": write failed: " + err);
+bool is_png(const std::string &path) {
+    std::string ext = fs::path(path).extension().string();
+    for (char &c : ext) c = char(std::tolower(static_cast<unsigned char>(c)));
+    return ext == ".png";
+}
+
+// Writes interleaved pixels through the image module; throws std::runtime_error with its
+// message.
+void write_with_module(const std::string &final_path, const std::string &file,
+                       const ImageSpec &spec, PixelType data_type, const void *data) {
+    std::string err;
+    if (!imageio::backend().write(format_for(final_path), file, spec, data_type, data, &err))
+        throw std::runtime_error(final_path + ": " + err);
+}
+
+Imf::Compression exr_compression(const std::string &path, const std::string &name) {
+    static const std::pair<const char *, Imf::Compression> kNames[] = {
+        {"none", Imf::NO_COMPRESSION},     {"rle", Imf::RLE_COMPRESSION},
+        {"zips", Imf::ZIPS_COMPRESSION},   {"zip", Imf::ZIP_COMPRESSION},
+        {"piz", Imf::PIZ_COMPRESSION},     {"pxr24", Imf::PXR24_COMPRESSION},
+        {"b44", Imf::B44_COMPRESSION},     {"b44a", Imf::B44A_COMPRESSION},
+        {"dwaa", Imf::DWAA_COMPRESSION},   {"dwab", Imf::DWAB_COMPRESSION}};
+    for (const auto &[n, c] : kNames)
+        if (name == n) return c;
+    throw std::invalid_argument(path + ": unknown EXR compression \"" + name + "\"");
+}
+
+// libpng reports errors through longjmp; the message is kept for the exception thrown after.
+struct PngErrors {
+    std::string message;
+};
+
+void png_error_fn(png_structp png, png_const_charp msg) {
+    static_cast<PngErrors *>(png_get_error_ptr(png))->message = msg ? msg : "libpng error";
+    png_longjmp(png, 1);
+}
+
+void png_warning_fn(png_structp, png_const_charp) {}
+
+// Writes an 8-bit RGB PNG with a "Software" text chunk. Returns "" or libpng's message.
+// Only trivially destructible locals live between setjmp and the longjmp that may return
+// to it.
+std::string write_png_rgb8(const std::string &file, uint32_t width, uint32_t height,
+                           const uint8_t *rgb, std::vector<png_bytep> &rows, PngErrors &errors) {
+    FILE *fp = std::fopen(file.c_str(), "wb");
+    if (!fp) return std::string("cannot open for writing: ") + std::strerror(errno);
+    png_structp png =
+        png_create_write_struct(PNG_LIBPNG_VER_STRING, &errors, png_error_fn, png_warning_fn);
+    png_infop info = png ? png_create_info_struct(png) : nullptr;
+    if (!png || !info) {
+        png_destroy_write_struct(&png, nullptr);
+        std::fclose(fp);
+        return "cannot create the PNG writer";
     }
-    if (!out->close())
-        throw std::runtime_error(final_path + ": close failed: " + out->geterror());
+    if (setjmp(png_jmpbuf(png))) {
+        png_destroy_write_struct(&png, &info);
+        std::fclose(fp);
+        return errors.message.empty() ? std::string("libpng error") : errors.message;
+    }
+    png_init_io(png, fp);
+    png_set_IHDR(png, info, width, height, 8, PNG_COLOR_TYPE_RGB, PNG_INTERLACE_NONE,
+                 PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
+    static char key[] = "Software", text[] = "Tessera";
+    png_text t{};
+    t.compression = PNG_TEXT_COMPRESSION_NONE;
+    t.key = key;
+    t.text = text;
+    png_set_text(png, info, &t, 1);
+    for (uint32_t y = 0; y < height; ++y)
+        rows[y] = const_cast<png_bytep>(rgb + size_t(y) * width * 3);
+    png_set_rows(png, info, rows.data());
+    png_write_png(png, info, PNG_TRANSFORM_IDENTITY, nullptr);
+    png_destroy_write_struct(&png, &info);
+    if (std::fclose(fp) != 0) return std::string("close failed: ") + std::strerror(errno);
+    return "";
 }
 
 // All channels of subimage 0 as float, interleaved.
@@ -75,12 +141,12 @@ void OpenedImage::check_read_whole() const {
 
 std::vector<float> OpenedImage::read_floats(int chbegin, int chend) {
     std::vector<float> px(size_t(spec.width) * size_t(spec.height) * size_t(chend - chbegin));
-    if (!in->read_image(0, 0, chbegin, chend, TypeDesc::FLOAT, px.data())) fail(in->geterror());
+    if (!in->read_image(chbegin, chend, PixelType::Float, px.data())) fail(in->geterror());
     return px;
 }
 
 OpenedImage open_image(const std::string &path, const FileLoc &loc, const std::string &what,
-                       ImageRead read) {
+                       ImageRead read, bool unassociated_alpha) {
     OpenedImage img;
     img.loc = loc;
     img.name = loc.file == path ? what : what + " \"" + path + "\"";
@@ -90,11 +156,13 @@ OpenedImage open_image(const std::string &path, const FileLoc &loc, const std::s
     if (fs::is_directory(st)) img.fail("is a directory, not a file");
     // A FIFO or device would block the reader or never end.
     if (!fs::is_regular_file(st)) img.fail("not a regular file");
-    img.in = ImageInput::open(path);
-    if (!img.in) {
-        const std::string err = OIIO::geterror();
-        img.fail(err.empty() ? "not an image file OpenImageIO can read" : err);
+    std::string err;
+    try {
+        img.in = imageio::backend().open(path, unassociated_alpha, &err);
+    } catch (const std::runtime_error &e) {
+        img.fail(e.what());  // the module is missing
     }
+    if (!img.in) img.fail(err.empty() ? "not an image file OpenImageIO can read" : err);
     img.spec = img.in->spec();
     if (read == ImageRead::Whole)
         img.check_read_whole();
@@ -225,42 +293,50 @@ void write_exr(const std::string &path, uint32_t width, uint32_t height,
                const std::vector<ImageLayer> &layers, const ExrWriteOptions &options) {
     if (width == 0 || height == 0) throw std::invalid_argument(path + ": empty image");
     const size_t pixels = size_t(width) * height;
-    ImageSpec spec(int(width), int(height), 0, TypeDesc::FLOAT);
-    spec.channelnames.clear();
-    std::vector<TypeDesc> formats;
+    Imf::Header header(static_cast<int>(width), static_cast<int>(height));
+    header.compression() = exr_compression(path, options.compression);
+    header.insert("software", Imf::StringAttribute("Tessera"));
+    // Each float channel a strided slice of its layer's data; a half channel a copy converted
+    // by Imath's half (round to nearest even), since OpenEXR writes only the slice's own type.
+    Imf::FrameBuffer fb;
+    std::vector<std::vector<half>> halves;
+    size_t nchannels = 0;
     for (const ImageLayer &layer : layers) {
         if (layer.channels.empty() || layer.data.size() != pixels * layer.channels.size())
             throw std::invalid_argument(path + ": layer '" + layer.name +
                                         "' has a data size that does not match its channels");
-        for (const std::string &c : layer.channels) {
-            spec.channelnames.push_back(layer.name.empty() ? c : layer.name + "." + c);
-            formats.push_back(options.half && !layer.always_float ? TypeDesc::HALF
-                                                                  : TypeDesc::FLOAT);
+        const size_t nc = layer.channels.size();
+        for (size_t c = 0; c < nc; ++c) {
+            const std::string name =
+                layer.name.empty() ? layer.channels[c] : layer.name + "." + layer.channels[c];
+            if (header.channels().findChannel(name))
+                throw std::invalid_argument(path + ": channel '" + name + "' given twice");
+            if (options.half && !layer.always_float) {
+                header.channels().insert(name, Imf::Channel(Imf::HALF));
+                std::vector<half> &h = halves.emplace_back(pixels);
+                for (size_t i = 0; i < pixels; ++i) h[i] = half(layer.data[i * nc + c]);
+                fb.insert(name, Imf::Slice(Imf::HALF, reinterpret_cast<char *>(h.data()),
+                                           sizeof(half), sizeof(half) * width));
+            } else {
+                header.channels().insert(name, Imf::Channel(Imf::FLOAT));
+                fb.insert(name, Imf::Slice(Imf::FLOAT,
+                                           const_cast<char *>(reinterpret_cast<const char *>(
+                                               layer.data.data() + c)),
+                                           sizeof(float) * nc, sizeof(float) * nc * width));
+            }
+            ++nchannels;
         }
     }
-    spec.nchannels = int(spec.channelnames.size());
-    if (spec.nchannels == 0) throw std::invalid_argument(path + ": no channels to write");
-    bool mixed = std::any_of(formats.begin(), formats.end(),
-                             [&](TypeDesc t) { return t != formats.front(); });
-    spec.format = formats.front();
-    if (mixed) spec.channelformats = formats;
-    spec.alpha_channel = -1;
-    spec.z_channel = -1;
-    spec.attribute("compression", options.compression);
-    spec.attribute("Software", "Tessera");
-
-    // Interleave every layer into one float buffer; OIIO converts to half where asked.
-    std::vector<float> interleaved(pixels * size_t(spec.nchannels));
-    size_t offset = 0;
-    for (const ImageLayer &layer : layers) {
-        size_t nc = layer.channels.size();
-        for (size_t i = 0; i < pixels; ++i)
-            for (size_t c = 0; c < nc; ++c)
-                interleaved[i * spec.nchannels + offset + c] = layer.data[i * nc + c];
-        offset += nc;
-    }
+    if (nchannels == 0) throw std::invalid_argument(path + ": no channels to write");
     write_atomically(path, [&](const std::string &tmp) {
-        write_with_oiio(path, tmp, spec, TypeDesc::FLOAT, interleaved.data());
+        try {
+            const int threads = int(std::max(1u, std::thread::hardware_concurrency()));
+            Imf::OutputFile file(tmp.c_str(), header, threads);
+            file.setFrameBuffer(fb);
+            file.writePixels(int(height));
+        } catch (const std::exception &e) {
+            throw std::runtime_error(path + ": write failed: " + e.what());
+        }
     });
 }
 
@@ -285,10 +361,24 @@ void write_rgb8(const std::string &path, uint32_t width, uint32_t height,
                 const std::vector<uint8_t> &rgb) {
     if (width == 0 || height == 0 || rgb.size() != size_t(width) * height * 3)
         throw std::invalid_argument(path + ": 8-bit image size does not match its data");
-    ImageSpec spec(int(width), int(height), 3, TypeDesc::UINT8);
+    if (is_png(path)) {
+        std::vector<png_bytep> rows(height);
+        PngErrors errors;
+        write_atomically(path, [&](const std::string &tmp) {
+            const std::string err = write_png_rgb8(tmp, width, height, rgb.data(), rows, errors);
+            if (!err.empty()) throw std::runtime_error(path + ": " + err);
+        });
+        return;
+    }
+    ImageSpec spec;
+    spec.width = int(width);
+    spec.height = int(height);
+    spec.nchannels = 3;
+    spec.format = PixelType::UInt8;
+    spec.channelnames = {"R", "G", "B"};
     spec.attribute("Software", "Tessera");
     write_atomically(path, [&](const std::string &tmp) {
-        write_with_oiio(path, tmp, spec, TypeDesc::UINT8, rgb.data());
+        write_with_module(path, tmp, spec, PixelType::UInt8, rgb.data());
     });
 }
 

@@ -1,5 +1,6 @@
-// Image files through OpenImageIO: the film's linear multilayer EXR, reading images back for
-// references and `tessera diff`, and atomic writes.
+// Image files: the film's linear multilayer EXR (OpenEXR), display PNGs (libpng), reading
+// images back for scenes, references and `tessera diff` (OpenImageIO, through the module of
+// renderer/util/image_backend.h), and atomic writes.
 //
 // EXR channel names (OpenEXR multilayer convention "layer.channel"; the beauty is the
 // unnamed default layer, so every viewer shows it first):
@@ -23,8 +24,6 @@
 // written directly, and a directory is an error.
 #pragma once
 
-#include <OpenImageIO/imageio.h>
-
 #include <cstdint>
 #include <functional>
 #include <memory>
@@ -33,6 +32,7 @@
 #include <vector>
 
 #include "renderer/util/error.h"
+#include "renderer/util/image_backend.h"
 #include "sampling/film.h"
 #include "sampling/image_metrics.h"
 
@@ -73,7 +73,8 @@ void write_film_exr(const std::string &path, const sampling::Film &film,
                     const ExrWriteOptions &options = {}, std::vector<ImageLayer> extra = {});
 
 /// Writes an 8-bit RGB image (3 bytes per pixel, row-major) in the format given by the path's
-/// extension (e.g. .png), atomically. Throws std::runtime_error on failure.
+/// extension, atomically: .png with libpng, any other through OpenImageIO (the image module).
+/// Throws std::runtime_error on failure.
 void write_rgb8(const std::string &path, uint32_t width, uint32_t height,
                 const std::vector<uint8_t> &rgb);
 
@@ -84,8 +85,8 @@ enum class ImageRead { Whole, Streamed };
 /// An image file opened for reading by open_image, its header checked. `name` is how messages
 /// name it: `what "path"`, or only `what` when the location already is the file.
 struct OpenedImage {
-    std::unique_ptr<OIIO::ImageInput> in;
-    OIIO::ImageSpec spec;  ///< subimage 0, MIP level 0
+    std::unique_ptr<imageio::ImageInput> in;
+    imageio::ImageSpec spec;  ///< subimage 0, MIP level 0
     FileLoc loc;
     std::string name;
 
@@ -103,10 +104,10 @@ struct OpenedImage {
 /// channels are above 0 and its size within kMaxImagePixels (renderer/util/limits.h) and, for
 /// ImageRead::Whole, that width x height x channels floats fit the memory budget -- all before
 /// any pixel is allocated. `what` names the image in messages ("image", "normalmap",
-/// "checkpoint"). Throws SceneError "file:line: cannot read what \"path\": why", or the
-/// limit's message.
+/// "checkpoint"); `unassociated_alpha`: colour as stored, not premultiplied by alpha. Throws
+/// SceneError "file:line: cannot read what \"path\": why", or the limit's message.
 OpenedImage open_image(const std::string &path, const FileLoc &loc, const std::string &what,
-                       ImageRead read = ImageRead::Whole);
+                       ImageRead read = ImageRead::Whole, bool unassociated_alpha = false);
 
 /// Reads the colour of an image file as linear float RGB: channels R, G, B when present, else
 /// the first layer with channels "<layer>.R/G/B", else a single channel replicated to grey,

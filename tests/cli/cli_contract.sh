@@ -168,6 +168,15 @@ PY
     run render scene.pbrt --spp 1 -q
     expect_rc 0
     [[ -s fromscene.exr && -s fromscene.png ]] || fail "Film \"filename\" was not used"
+    # A scene that reads no image never loads OpenImageIO (its ~270 libraries cost 0.3 s at
+    # start-up): the EXR and PNG are written with OpenEXR and libpng (docs/ARCHITECTURE.md).
+    LD_DEBUG=files timeout 60 "$tessera" render scene.pbrt -o lean.exr --spp 1 -q \
+        >stdout.txt 2>ld.txt
+    rc=$?
+    expect_rc 0
+    [[ -s lean.exr && -s lean.png ]] || fail "lean.exr / lean.png were not written"
+    grep -q 'file=.*libOpenImageIO' ld.txt && fail "a render without images loaded OpenImageIO"
+    grep -q 'file=.*libembree' ld.txt || fail "LD_DEBUG=files did not list libraries"
     ;;
 media_scene)
     # A scene with a medium (a fog sphere around the good scene's quad) runs the volumetric path

@@ -160,6 +160,32 @@ TEST_CASE("display PNG through the embedded OCIO config") {
     CHECK_THROWS_AS(DisplayTransform{opt}, std::runtime_error);
 }
 
+TEST_CASE("8-bit images: PNG with libpng, other formats through the image module") {
+    fs::path dir = fresh_dir("rgb8");
+    std::vector<uint8_t> rgb(4 * 3 * 3);
+    for (size_t i = 0; i < rgb.size(); ++i) rgb[i] = uint8_t((i * 37 + 11) % 256);
+    for (const char *name : {"a.png", "a.tif"}) {
+        const std::string path = (dir / name).string();
+        write_rgb8(path, 4, 3, rgb);
+        OpenedImage img = open_image(path, FileLoc{path, 0}, "image");
+        CHECK(img.spec.width == 4);
+        CHECK(img.spec.height == 3);
+        REQUIRE(img.spec.nchannels == 3);
+        CHECK(img.spec.format == imageio::PixelType::UInt8);
+        CHECK(img.spec.format_name == (std::string(name) == "a.png" ? "png" : "tiff"));
+        std::vector<uint8_t> back(rgb.size());
+        REQUIRE(img.in->read_image(0, 3, imageio::PixelType::UInt8, back.data()));
+        CHECK(back == rgb);
+    }
+    CHECK(listing(dir) == std::vector<std::string>{"a.png", "a.tif"});
+    // An unknown EXR compression is an error before anything is written.
+    ExrWriteOptions bad;
+    bad.compression = "lzma";
+    CHECK_THROWS_AS(write_exr((dir / "c.exr").string(), 1, 1, {{"", {"Y"}, {1.f}, false}}, bad),
+                    std::invalid_argument);
+    CHECK(listing(dir) == std::vector<std::string>{"a.png", "a.tif"});
+}
+
 TEST_CASE("explicit OCIO config path and $OCIO") {
     fs::path dir = fresh_dir("ocio");
     fs::path cfg = dir / "config.ocio";
