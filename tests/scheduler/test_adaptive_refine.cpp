@@ -227,7 +227,7 @@ TEST_CASE("refine: the floor samples completed regions, the cap bounds the hard 
     CHECK(cap.max < 1024);
 }
 
-TEST_CASE("a quadrant whose only open leaves lie in its margin is complete (the render converges)") {
+TEST_CASE("a quadrant whose only open leaves lie in its margin is complete (nothing stays open below max_spp)") {
     // Each quadrant's tree covers its tiles plus a one-tile margin of its neighbours' tiles,
     // and the neighbour decides, with its own cuts, when those tiles stop. Found by a sweep:
     // with these hard rectangles next to a quadrant boundary, a neighbour's tree cut so that
@@ -241,11 +241,14 @@ TEST_CASE("a quadrant whose only open leaves lie in its margin is complete (the 
     };
     const Case cases[] = {{18, 15, 0.3f}, {18, 21, 0.3f}, {27, 18, 0.1f},
                           {30, 15, 0.1f}, {30, 15, 0.2f}, {30, 18, 0.1f}};
-    // Barrier-free, a thread that runs ahead on a stale tree (its rebuilding neighbour
-    // preempted, as on a loaded machine) can use up the last passes before a rebuild reopens a
-    // region; the catch-up passes after the schedule sample it then (once in ~2000 such renders
-    // run two at a time on 2 cores, before those passes existed, it ended unconverged; the
-    // margin bug above did it about one time in twelve).
+    // Barrier-free, the thread timing moves the trees' floating-point splits. A split can leave
+    // a leaf across the quadrant seam too narrow to split again and mostly margin; its error is
+    // its own part's scaled to the whole leaf, and that can need more than max_spp, so such a
+    // render may honestly end unconverged (about 1 in 250 under injected scheduling delays). What
+    // the margin bug broke stays checked: an unconverged render has spent max_spp on every pixel
+    // its final trees leave open. A thread that runs ahead on a stale tree (its rebuilding
+    // neighbour preempted) can use up the last passes before a rebuild reopens a region; the
+    // catch-up passes after the schedule sample it then.
     int unconverged_free = 0, renders_free = 0;
     for (bool det : {true, false})
         for (const Case &c : cases)
@@ -260,8 +263,9 @@ TEST_CASE("a quadrant whose only open leaves lie in its margin is complete (the 
                 AdaptiveOptions o = options(2, false);
                 o.deterministic = det;
                 o.seed = 1;
-                const AdaptiveStats st = AdaptiveScheduler(src, film, o).render();
-                uint32_t most = 0;
+                AdaptiveScheduler scheduler(src, film, o);
+                const AdaptiveStats st = scheduler.render();
+                uint32_t most = 0, open_below_max = 0;
                 for (uint32_t y = 0; y < kH; ++y)
                     for (uint32_t x = 0; x < kW; ++x)
                         most = std::max(most, film.sample_count(x, y));
@@ -269,11 +273,21 @@ TEST_CASE("a quadrant whose only open leaves lie in its margin is complete (the 
                     CHECK(st.converged);
                     CHECK(most < o.max_spp);
                 } else {
-                    // (A tile may also take one more pass on a stale tree, up to max_spp.)
-                    unconverged_free += st.converged ? 0 : 1;
                     ++renders_free;
+                    if (!st.converged) {
+                        ++unconverged_free;
+                        for (uint32_t y = 0; y < kH; ++y)
+                            for (uint32_t x = 0; x < kW; ++x) {
+                                bool open = false;
+                                for (int q = 0; q < 4; ++q)
+                                    open = open || scheduler.tree(q).pixel_active(x, y);
+                                if (open && film.sample_count(x, y) < o.max_spp)
+                                    ++open_below_max;
+                            }
+                        CHECK(most == o.max_spp);
+                        CHECK(open_below_max == 0);
+                    }
                 }
             }
     MESSAGE(unconverged_free << " of " << renders_free << " barrier-free renders unconverged");
-    CHECK(unconverged_free == 0);
 }
