@@ -5,9 +5,14 @@
 
 namespace tessera::sampling {
 
+alignas(64) const uint32_t kSobolMatrices[kSobolMatrixDimensions][32] = {
+#include "sampling/sobol_matrices.inc"
+};
+
 std::string SobolSampler::describe() const {
     std::ostringstream os;
-    os << "SobolSampler(owen-scrambled, seed=" << seed_ << ", pixel=(" << px_ << ", " << py_
+    os << "SobolSampler(owen-scrambled "
+       << (pattern_ == SamplePattern::Sobol ? "sobol" : "padded") << ", seed=" << seed_ << ", pixel=(" << px_ << ", " << py_
        << "), index=" << index_ << ", dimension=" << dim_ << ")";
     return os.str();
 }

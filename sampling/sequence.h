@@ -22,6 +22,7 @@
 #pragma once
 
 #include <array>
+#include <bit>
 #include <cstdint>
 #include <string>
 
@@ -266,7 +267,47 @@ inline Vec2f scrambled_sobol_2d_rev(uint32_t h, uint32_t index_rev) {
     return {fixed_to_unit_float(uint32_t(xy)), fixed_to_unit_float(uint32_t(xy >> 32))};
 }
 
-/// Per-pixel Owen-scrambled Sobol sampler. A cheap value type (28 bytes): each thread copies
+/// Which points a SobolSampler hands out.
+enum class SamplePattern : uint8_t {
+    /// Every request its own shuffled, Owen-scrambled low-dimensional Sobol sequence (the
+    /// algorithm at the top of this file): each 2D pair is a (0,m,2)-net in every power-of-two
+    /// prefix, and the pairs are decorrelated from each other. pbrt-v4's "zsobol" and
+    /// "paddedsobol" are of this family; Tessera's default.
+    Padded,
+    /// One point of the kSobolMatrixDimensions-dimensional Sobol sequence per sample (Joe and
+    /// Kuo's direction numbers), each dimension Owen-scrambled with its own per-pixel seed and
+    /// the sample index left unshuffled: the dimensions stay jointly stratified, so an integrand
+    /// that couples the film offset, a light choice and a point on the light (direct light on a
+    /// diffuse wall) converges faster than 1/N. pbrt-v4's "sobol" sampler (with its Owen
+    /// randomisation) draws its points from one such sequence over the whole image; here each
+    /// pixel scrambles its own copy, so the values stay a pure function of (seed, pixel, index,
+    /// dimension). Dimensions past the table continue with Padded's values.
+    Sobol,
+};
+
+/// Dimensions of the Sobol generator-matrix table (sampling/sobol_matrices.inc).
+inline constexpr uint32_t kSobolMatrixDimensions = 1024;
+/// kSobolMatrices[j][k]: column k of Sobol dimension j's generator matrix, the direction number
+/// v_k as 32-bit fixed point (scripts/make_sobol_matrices.py; Joe and Kuo 2008).
+extern const uint32_t kSobolMatrices[kSobolMatrixDimensions][32];
+
+/// Dimension `dim` (< kSobolMatrixDimensions) of Sobol point `index`, as 32-bit fixed point:
+/// the XOR of the matrix columns of the index's set bits.
+[[gnu::always_inline]] inline uint32_t sobol_sample_32(uint32_t dim, uint32_t index) {
+    const uint32_t *m = kSobolMatrices[dim];
+    uint32_t r = 0;
+    for (; index != 0; index &= index - 1) r ^= m[std::countr_zero(index)];
+    return r;
+}
+
+/// Dimension `dim` of Sobol point `index`, Owen-scrambled with the dimension hash `h`
+/// (SamplePattern::Sobol's value of that dimension).
+[[gnu::always_inline]] inline float scrambled_sobol_nd(uint32_t h, uint32_t dim, uint32_t index) {
+    return fixed_to_unit_float(owen_scramble_32(sobol_sample_32(dim, index),
+                                                lanes::coordinate_seed(h, 0)));
+}
+
+/// Per-pixel Owen-scrambled Sobol sampler. A cheap value type (32 bytes): each thread copies
 /// it (or constructs its own) and calls start_pixel_sample() before each sample. Not thread-safe
 /// per instance; every value is a pure function of (seed, px, py, index, dimension), so the
 /// values never depend on which thread or pass draws them.
@@ -279,7 +320,8 @@ inline Vec2f scrambled_sobol_2d_rev(uint32_t h, uint32_t index_rev) {
 class SobolSampler {
   public:
     /// `seed` selects an independent scrambling of every pixel and dimension.
-    explicit SobolSampler(uint32_t seed = 0) : seed_(seed), pixel_hash_(hash_pixel(seed, 0, 0)) {}
+    explicit SobolSampler(uint32_t seed = 0, SamplePattern pattern = SamplePattern::Padded)
+        : seed_(seed), pattern_(pattern), pixel_hash_(hash_pixel(seed, 0, 0)) {}
 
     /// Starts sample `index` of pixel (px, py) and resets the dimension to `dimension`
     /// (default kFirstFreeDimension).
@@ -297,15 +339,21 @@ class SobolSampler {
     /// these five times a bounce, and GCC stopped inlining them into it once its translation
     /// unit grew (a 3-5% slower render, measured; the unit's inline growth limit).
     [[gnu::always_inline]] float get_1d() {
-        uint32_t h = hash_dimension(pixel_hash_, dim_);
-        ++dim_;
+        const uint32_t d = dim_++;
+        const uint32_t h = hash_dimension(pixel_hash_, d);
+        if (pattern_ == SamplePattern::Sobol && d < kSobolMatrixDimensions)
+            return scrambled_sobol_nd(h, d, index_);
         return scrambled_sobol_1d_rev(h, index_rev_);
     }
 
     /// Next 2D value in [0,1)^2; consumes two dimensions (one stratified pair).
     [[gnu::always_inline]] Vec2f get_2d() {
-        uint32_t h = hash_dimension(pixel_hash_, dim_);
+        const uint32_t d = dim_;
         dim_ += 2;
+        const uint32_t h = hash_dimension(pixel_hash_, d);
+        if (pattern_ == SamplePattern::Sobol && d + 1 < kSobolMatrixDimensions)
+            return {scrambled_sobol_nd(h, d, index_),
+                    scrambled_sobol_nd(hash_dimension(pixel_hash_, d + 1), d + 1, index_)};
         return scrambled_sobol_2d_rev(h, index_rev_);
     }
 
@@ -316,12 +364,18 @@ class SobolSampler {
     /// Film offset inside the pixel in [0,1)^2 from the reserved pair (kPixelDimension,
     /// kPixelDimension + 1). Does not advance the dimension counter.
     Vec2f get_pixel_2d() const {
-        return scrambled_sobol_2d_rev(hash_dimension(pixel_hash_, kPixelDimension), index_rev_);
+        const uint32_t h = hash_dimension(pixel_hash_, kPixelDimension);
+        if (pattern_ == SamplePattern::Sobol)
+            return {scrambled_sobol_nd(h, kPixelDimension, index_),
+                    scrambled_sobol_nd(hash_dimension(pixel_hash_, kPixelDimension + 1),
+                                       kPixelDimension + 1, index_)};
+        return scrambled_sobol_2d_rev(h, index_rev_);
     }
 
     /// Next dimension get_1d / get_2d will use.
     uint32_t dimension() const { return dim_; }
     uint32_t seed() const { return seed_; }
+    SamplePattern pattern() const { return pattern_; }
     uint32_t sample_index() const { return index_; }
 
     /// One readable line of the sampler's state, for logs.
@@ -329,6 +383,7 @@ class SobolSampler {
 
   private:
     uint32_t seed_ = 0;
+    SamplePattern pattern_ = SamplePattern::Padded;
     uint32_t px_ = 0, py_ = 0;
     uint32_t index_ = 0;
     uint32_t index_rev_ = 0;  // reverse_bits_32(index_), shared by every dimension's shuffle

@@ -168,3 +168,76 @@ TEST_CASE("fast sequence kernels equal their bit-by-bit definitions") {
     CHECK(sobol_dim1(0) == 0u);
     CHECK(sobol_dim1(1) == 0x80000000u);
 }
+
+TEST_CASE("the Sobol generator matrices are Joe and Kuo's and every dimension is a net") {
+    // Dimension 0 is van der Corput's, dimension 1 the (0,2)-sequence's second matrix.
+    for (uint32_t i = 0; i < 4096; ++i) {
+        CHECK(sobol_sample_32(0, i) == reverse_bits_32(i));
+        CHECK(sobol_sample_32(1, i) == sobol_dim1_reference(i));
+    }
+    // Dimension 2 (x^2 + x + 1, m = 1, 3; Joe and Kuo's first 2-degree entry): v_1 = 1/2,
+    // v_2 = 3/4, so point 3 is 1/2 xor 3/4 = 1/4.
+    CHECK(sobol_sample_32(2, 1) == 0x80000000u);
+    CHECK(sobol_sample_32(2, 2) == 0xc0000000u);
+    CHECK(sobol_sample_32(2, 3) == 0x40000000u);
+    // Every dimension's first 2^10 points fall one in each interval of width 2^-10 (each
+    // matrix is non-singular: a (0,10,1)-net), in the last table row as in the first.
+    int bad = 0;
+    for (uint32_t d = 0; d < kSobolMatrixDimensions; ++d) {
+        std::vector<int> seen(1024, 0);
+        for (uint32_t i = 0; i < 1024; ++i) ++seen[sobol_sample_32(d, i) >> 22];
+        for (int c : seen) bad += c != 1;
+    }
+    CHECK(bad == 0);
+}
+
+TEST_CASE("the Sobol pattern stratifies every dimension and couples them") {
+    SobolSampler s(7, SamplePattern::Sobol);
+    // 1D stratification of every dimension of one pixel's first 256 samples, Owen-scrambled,
+    // up to the table's end; past it the values are the padded pattern's.
+    std::vector<std::vector<int>> seen(kSobolMatrixDimensions, std::vector<int>(256, 0));
+    for (uint32_t i = 0; i < 256; ++i) {
+        s.start_pixel_sample(3, 5, i, 0);
+        for (uint32_t d = 0; d < kSobolMatrixDimensions; ++d) ++seen[d][int(s.get_1d() * 256)];
+        SobolSampler p(7, SamplePattern::Padded);
+        p.start_pixel_sample(3, 5, i, kSobolMatrixDimensions);
+        CHECK(s.get_1d() == p.get_1d());
+        const Vec2f sv = s.get_2d(), pv = p.get_2d();
+        CHECK(sv.x == pv.x);
+        CHECK(sv.y == pv.y);
+    }
+    int bad = 0;
+    for (const auto &v : seen)
+        for (int c : v) bad += c != 1;
+    CHECK(bad == 0);
+    // get_2d's pair equals two get_1d calls (a dimension's value depends on the dimension only).
+    s.start_pixel_sample(1, 2, 77);
+    const float a = s.get_1d(), b = s.get_1d();
+    s.start_pixel_sample(1, 2, 77);
+    const Vec2f ab = s.get_2d();
+    CHECK(ab.x == a);
+    CHECK(ab.y == b);
+
+    // An integrand coupling the film offset and a later dimension, 1[u_pixel.x + u_5 < 1]
+    // (mean 1/2): the Sobol pattern's dimensions are jointly stratified, the padded pattern's
+    // are decorrelated, so its error at 1024 samples is several times smaller (measured: 0.05x;
+    // asserted below 0.5x over 64 pixels).
+    auto mse = [](SamplePattern pattern) {
+        double sum = 0;
+        for (uint32_t px = 0; px < 64; ++px) {
+            SobolSampler t(11, pattern);
+            double acc = 0;
+            for (uint32_t i = 0; i < 1024; ++i) {
+                t.start_pixel_sample(px, 0, i);
+                const float u0 = t.get_pixel_2d().x;
+                t.skip(3);
+                acc += (u0 + t.get_1d() < 1.f) ? 1.0 : 0.0;
+            }
+            sum += sqr(acc / 1024 - 0.5);
+        }
+        return sum / 64;
+    };
+    const double sobol = mse(SamplePattern::Sobol), padded = mse(SamplePattern::Padded);
+    MESSAGE("coupled-integrand MSE: sobol " << sobol << ", padded " << padded);
+    CHECK(sobol < 0.5 * padded);
+}
