@@ -117,7 +117,21 @@ interrupt)
     timeout 60 mpirun --oversubscribe -np 2 "$tessera" render "$scene" --resolution 128x96 \
         --spp 1000000 --time 40 --threads 1 -o int.exr -q >int.log 2>&1 &
     pid=$!
-    sleep 3
+    # Interrupt once both ranks catch SIGTERM (bit 15 of SigCgt: the render's handler is
+    # installed) and have rendered a moment; a fixed delay raced the start-up on a loaded
+    # machine.
+    for _ in $(seq 300); do
+        ready=0
+        for p in $(pgrep -f "$tessera render"); do
+            tr '\0' '\n' <"/proc/$p/environ" 2>/dev/null | grep -q '^OMPI_COMM_WORLD_RANK=' ||
+                continue  # mpirun itself, or another test's render
+            mask=$(awk '/^SigCgt:/ {print $2}' "/proc/$p/status" 2>/dev/null)
+            [[ -n "$mask" ]] && (( (16#$mask >> 14) & 1 )) && ready=$((ready + 1))
+        done
+        (( ready >= 2 )) && break
+        sleep 0.1
+    done
+    sleep 2
     kill -INT "$pid"
     wait "$pid"
     [[ -s int.exr && -s int.checkpoint.exr ]] || fail "no image or checkpoint after Ctrl-C"
