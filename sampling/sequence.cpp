@@ -12,8 +12,8 @@ alignas(64) const uint32_t kSobolMatrices[kSobolMatrixDimensions][32] = {
 std::string SobolSampler::describe() const {
     std::ostringstream os;
     os << "SobolSampler(owen-scrambled "
-       << (pattern_ == SamplePattern::Sobol ? "sobol" : "padded") << ", seed=" << seed_ << ", pixel=(" << px_ << ", " << py_
-       << "), index=" << index_ << ", dimension=" << dim_ << ")";
+       << pattern_name(pattern_) << ", seed=" << seed_ << ", pixel=(" << px_ << ", "
+       << py_ << "), index=" << index_ << ", dimension=" << dim_ << ")";
     return os.str();
 }
 

@@ -285,6 +285,11 @@ enum class SamplePattern : uint8_t {
     Sobol,
 };
 
+/// The pattern's name in logs and checkpoints: "padded" or "sobol".
+inline const char *pattern_name(SamplePattern p) {
+    return p == SamplePattern::Sobol ? "sobol" : "padded";
+}
+
 /// Dimensions of the Sobol generator-matrix table (sampling/sobol_matrices.inc).
 inline constexpr uint32_t kSobolMatrixDimensions = 1024;
 /// kSobolMatrices[j][k]: column k of Sobol dimension j's generator matrix, the direction number

@@ -535,7 +535,8 @@ std::string AdaptiveScheduler::describe() const {
     os << ", " << threads_ << " threads, " << (adaptive_ ? "adaptive" : "uniform")
        << (options_.deterministic ? " deterministic" : " barrier-free") << ", spp "
        << options_.min_spp << ".." << options_.max_spp << ", target " << options_.error_target
-       << (refine_ ? " (refined)" : "") << ", seed " << options_.seed << ")";
+       << (refine_ ? " (refined)" : "") << ", seed " << options_.seed << ", "
+       << sampling::pattern_name(options_.pattern) << " pattern)";
     return os.str();
 }
 
@@ -921,7 +922,7 @@ bool AdaptiveScheduler::sample_tile(const Tile &tile, uint32_t target, uint32_t 
             const uint32_t m =
                 std::min<uint32_t>(kSampleBatch - tally.batched, pixel_target - index);
             for (uint32_t k = 0; k < m; ++k)
-                ws.batch_cs[tally.batched + k] = camera_sample(options_.seed, px, py, index + k);
+                ws.batch_cs[tally.batched + k] = camera_sample(options_.seed, px, py, index + k, options_.pattern);
             tally.batched += m;
             index += m;
             if (tally.batched == kSampleBatch)

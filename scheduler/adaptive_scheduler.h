@@ -136,6 +136,7 @@
 #include "sampling/progressive_settings.h"
 #include "sampling/region_tree.h"
 #include "sampling/sample_source.h"
+#include "sampling/sequence.h"
 #include "scheduler/progress.h"
 #include "scheduler/rank_group.h"
 #include "scheduler/tiles.h"
@@ -208,6 +209,8 @@ struct AdaptiveOptions {
     bool deterministic = false;  ///< barrier between passes: bit-identical for any thread count
     uint32_t threads = 0;        ///< worker threads (0: TBB's default concurrency)
     uint32_t seed = 0;           ///< sequence seed of the film offsets (scheduler/camera_sample.h)
+    /// Pattern of the film offsets: the integrator's (the scene's RenderSettings::sample_pattern).
+    sampling::SamplePattern pattern = sampling::SamplePattern::Padded;
     /// Largest pass in samples per pixel (0: passes keep doubling).
     uint32_t max_pass_spp = sampling::kProgressiveDefaults.max_pass_spp;
     /// Accepted samples a pixel needs before it has an error estimate (below: +inf, open).

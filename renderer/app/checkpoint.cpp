@@ -168,6 +168,7 @@ void write_checkpoint(const std::string &path, const sampling::Film &film,
     spec.attribute("tessera:format", kFormatTag);
     spec.attribute("tessera:passes", int(state.passes));
     spec.attribute("tessera:seed", std::to_string(state.seed));
+    spec.attribute("tessera:pattern", state.pattern);
     spec.attribute("tessera:elapsed_s", std::to_string(state.elapsed_s));
     spec.attribute("tessera:nan_count", std::to_string(film.nan_count()));
     spec.attribute("tessera:scene", state.scene);
@@ -268,6 +269,7 @@ CheckpointState read_checkpoint(const std::string &path, sampling::Film &film) {
     if (seed > double(UINT32_MAX))
         throw SceneError(path + ":0: checkpoint seed is out of range");
     st.seed = uint32_t(seed);
+    st.pattern = spec.get_string_attribute("tessera:pattern", "padded");
     st.elapsed_s = number("tessera:elapsed_s");
     uint64_t nan = uint64_t(std::min(nan_d, 1e18));
     st.scene = spec.get_string_attribute("tessera:scene");

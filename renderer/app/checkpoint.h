@@ -23,6 +23,9 @@ namespace tessera {
 struct CheckpointState {
     uint32_t passes = 0;        ///< passes completed (the next pass to render)
     uint32_t seed = 0;          ///< sequence seed (must match on resume)
+    /// sampling::pattern_name of the sequence's pattern (must match on resume; a checkpoint
+    /// written before patterns existed reads as "padded").
+    std::string pattern = "padded";
     double elapsed_s = 0;       ///< render time spent so far
     std::string scene;          ///< scene file the render came from
     std::string settings;       ///< one line of sampler settings (informative, and compared)

@@ -80,6 +80,7 @@ sched::AdaptiveOptions scheduler_options(const Scene &scene, const SamplerSpec &
     o.min_extent = sampler.min_extent;
     o.threads = threads;
     o.seed = scene.settings.seed;
+    o.pattern = scene.settings.sample_pattern;
     o.progress = quiet ? sched::ProgressReporter::Mode::Never : sched::ProgressReporter::Mode::Auto;
     return o;
 }
@@ -231,6 +232,7 @@ ProgressiveSetup setup_progressive(const RenderOptions &opt, const Scene &scene,
     p.start_error_target = p.so.error_target;
 
     p.cs.seed = scene.settings.seed;
+    p.cs.pattern = sampling::pattern_name(scene.settings.sample_pattern);
     p.cs.scene = opt.scene;
     p.cs.settings = p.sampler.describe() + " spp=" + std::to_string(p.so.max_spp) +
                     (opt.deterministic ? " deterministic" : "");
@@ -239,6 +241,10 @@ ProgressiveSetup setup_progressive(const RenderOptions &opt, const Scene &scene,
         if (prev.seed != p.cs.seed)
             throw SceneError(opt.resume + ":0: checkpoint seed " + std::to_string(prev.seed) +
                              " differs from the render's seed " + std::to_string(p.cs.seed));
+        if (prev.pattern != p.cs.pattern)
+            throw SceneError(opt.resume + ":0: checkpoint sample pattern \"" + prev.pattern +
+                             "\" differs from the render's \"" + p.cs.pattern +
+                             "\" (the scene's Sampler type)");
         if (prev.settings != p.cs.settings)
             warn(FileLoc{opt.resume, 0}, "resuming with other settings: checkpoint \"" +
                                              prev.settings + "\", now \"" + p.cs.settings + "\"");

@@ -117,6 +117,7 @@ PathIntegrator::PathIntegrator(const Scene &scene, uint32_t seed, int max_depth,
                                DirectStrategy strategy, uint32_t disabled)
     : scene_(scene),
       seed_(seed),
+      pattern_(scene.settings.sample_pattern),
       max_depth_(max_depth),
       strategy_(strategy),
       spp_hint_(scene.settings.spp),
@@ -162,7 +163,7 @@ Sample PathIntegrator::to_sample(const PathResult &r) const {
 }
 
 Sample PathIntegrator::evaluate(const CameraSample &cs) const {
-    sampling::SobolSampler sampler(seed_);
+    sampling::SobolSampler sampler(seed_, pattern_);
     CameraRay cray = camera_ray(cs, sampler);
     if (cray.weight == 0.f) return to_sample(PathResult{});  // blocked by the lens system
     PathResult r = trace(cray, sampler);
@@ -191,7 +192,7 @@ void PathIntegrator::evaluate_batch(std::span<const CameraSample> samples,
         std::array<size_t, kPacket> lane;
         size_t traced = 0;
         for (size_t i = 0; i < n; ++i) {
-            samplers[i] = sampling::SobolSampler(seed_);
+            samplers[i] = sampling::SobolSampler(seed_, pattern_);
             crays[i] = camera_ray(samples[base + i], samplers[i]);
             if (crays[i].weight != 0.f) {
                 lane[i] = traced;
@@ -212,7 +213,7 @@ void PathIntegrator::evaluate_batch(std::span<const CameraSample> samples,
 }
 
 Rgb PathIntegrator::radiance(const Ray &ray, uint32_t px, uint32_t py, uint32_t index) const {
-    sampling::SobolSampler sampler(seed_);
+    sampling::SobolSampler sampler(seed_, pattern_);
     sampler.start_pixel_sample(px, py, index);
     sampler.skip(2);  // keep the dimension layout of evaluate()
     CameraRay cray;

@@ -29,7 +29,8 @@ enum class DirectStrategy {
 
 class PathIntegrator final : public SampleSource {
   public:
-    /// `scene` must outlive the integrator. `seed` selects the sample sequence. The
+    /// `scene` must outlive the integrator. `seed` selects the sample sequence, whose pattern
+    /// is the scene's (RenderSettings::sample_pattern). The
     /// specialised code paths (renderer/scene/specialize.h) that apply to the scene are used, except
     /// those in `disabled` (Specialization bits), which take the general path.
     PathIntegrator(const Scene &scene, uint32_t seed, int max_depth,
@@ -77,6 +78,7 @@ class PathIntegrator final : public SampleSource {
 
     const Scene &scene_;
     uint32_t seed_;
+    sampling::SamplePattern pattern_;
     int max_depth_;
     DirectStrategy strategy_;
     int spp_hint_;

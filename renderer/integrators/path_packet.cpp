@@ -281,6 +281,61 @@ inline vi gather(const int32_t *t, vi idx) {
 #endif
 }
 
+// SamplePattern::Sobol, lane by lane: sampling::sobol_sample_32 of each lane's own dimension
+// (masked gathers of the matrix columns of the index's set bits), then the same Owen scramble
+// as scrambled_sobol_nd. Lanes at a dimension past the table take the padded values, as
+// SobolSampler::get_1d / get_2d do.
+
+inline vu sobol_sample(vu dim, vu index) {
+    const vu d = dim < sampling::kSobolMatrixDimensions ? dim
+                                                         : splat_u(sampling::kSobolMatrixDimensions - 1);
+    vu r = splat_u(0);
+#ifdef __AVX2__
+    const int *m = reinterpret_cast<const int *>(&sampling::kSobolMatrices[0][0]);
+    vu col = d * 32u;
+    for (vu rest = index; _mm256_movemask_ps((__m256)(rest != 0)) != 0; rest >>= 1, col += 1u) {
+        const vi take = -(vi)(rest & 1u);
+        r ^= (vu)_mm256_mask_i32gather_epi32(_mm256_setzero_si256(), m, (__m256i)col,
+                                             (__m256i)take, 4);
+    }
+#else
+    for (int i = 0; i < kLanes; ++i) r[i] = sampling::sobol_sample_32(d[i], index[i]);
+#endif
+    return r;
+}
+
+inline vf scrambled_sobol_nd(vu pixel_hash, vu dim, vu index) {
+    const vu h = sampling::lanes::hash_dimension(pixel_hash, dim);
+    const vu x = sampling::lanes::reverse_bits(sampling::lanes::laine_karras(
+        sampling::lanes::reverse_bits(sobol_sample(dim, index)),
+        sampling::lanes::coordinate_seed(h, 0)));
+    return fixed_to_unit(x);
+}
+
+/// SobolSampler::get_1d / get_2d under either pattern (`sobol`: SamplePattern::Sobol).
+inline vf sample_1d(bool sobol, vu pixel_hash, vu dim, vu index_rev) {
+    if (!sobol)
+        return sobol_1d(pixel_hash, dim, index_rev);
+    const vi table = (vi)(dim < sampling::kSobolMatrixDimensions);
+    const vf v = scrambled_sobol_nd(pixel_hash, dim, sampling::lanes::reverse_bits(index_rev));
+    return any(~table) ? (table ? v : sobol_1d(pixel_hash, dim, index_rev)) : v;
+}
+
+inline void sample_2d(bool sobol, vu pixel_hash, vu dim, vu index_rev, vf &ux, vf &uy) {
+    if (!sobol)
+        return sobol_2d(pixel_hash, dim, index_rev, ux, uy);
+    const vi table = (vi)(dim + 1u < sampling::kSobolMatrixDimensions);
+    const vu index = sampling::lanes::reverse_bits(index_rev);
+    ux = scrambled_sobol_nd(pixel_hash, dim, index);
+    uy = scrambled_sobol_nd(pixel_hash, dim + 1u, index);
+    if (any(~table)) {
+        vf px, py;
+        sobol_2d(pixel_hash, dim, index_rev, px, py);
+        ux = table ? ux : px;
+        uy = table ? uy : py;
+    }
+}
+
 /// PixelFilter::sample_1d, lane by lane: the box, the tent (sampling::sample_tent) and the
 /// Gaussian's guided inversion of its tabulated CDF, with the same operations.
 vf filter_sample_1d(const PixelFilter &f, int axis, vf u) {
@@ -358,6 +413,7 @@ struct PacketSettings {
     int max_depth;
     bool use_nee, use_bsdf_emission, cull;
     uint32_t nee_dims;  ///< the light's dimensions a bounce consumes: 3, or 0 without NEE
+    bool sobol;         ///< the sampler's pattern is SamplePattern::Sobol
 };
 
 /// Per-lane path state. A lane traces samples[slot[i]]; when its path ends the lane takes the
@@ -719,11 +775,11 @@ template <class Result>
                                                            const PacketSettings &S) {
     BounceSamples u;
     if (S.use_nee) {
-        u.u_light = sobol_1d(P.pixel_hash, P.dim, P.index_rev);
-        sobol_2d(P.pixel_hash, P.dim + 1u, P.index_rev, u.u2x, u.u2y);
+        u.u_light = sample_1d(S.sobol, P.pixel_hash, P.dim, P.index_rev);
+        sample_2d(S.sobol, P.pixel_hash, P.dim + 1u, P.index_rev, u.u2x, u.u2y);
     }
-    sobol_2d(P.pixel_hash, P.dim + (S.nee_dims + 1u), P.index_rev, u.ub_x, u.ub_y);
-    u.u_rr = sobol_1d(P.pixel_hash, P.dim + (S.nee_dims + 3u), P.index_rev);
+    sample_2d(S.sobol, P.pixel_hash, P.dim + (S.nee_dims + 1u), P.index_rev, u.ub_x, u.ub_y);
+    u.u_rr = sample_1d(S.sobol, P.pixel_hash, P.dim + (S.nee_dims + 3u), P.index_rev);
     return u;
 }
 
@@ -950,7 +1006,8 @@ void PathIntegrator::trace_packet(std::span<const CameraSample> samples,
     const PacketSettings S{sc,      packet_meshes_,
                            lambertian_, max_depth_,
                            use_nee, strategy_ != DirectStrategy::LightOnly,
-                           cull_,   use_nee ? 3u : 0u};
+                           cull_,   use_nee ? 3u : 0u,
+                           pattern_ == sampling::SamplePattern::Sobol};
     PacketPaths<PathResult> P;
 
     // Camera rays, 8 samples at a time: lane-parallel for a pinhole and a positive filter
@@ -960,7 +1017,7 @@ void PathIntegrator::trace_packet(std::span<const CameraSample> samples,
         sc.filter.has_negative_lobes() ? std::nullopt : sc.camera->pinhole();
     uint32_t pinhole_dim = 0;
     if (pinhole) {
-        sampling::SobolSampler sampler(seed_);
+        sampling::SobolSampler sampler(seed_, pattern_);
         sampler.start_pixel_sample(0, 0, 0);
         sampler.skip(2);  // camera_ray: a pinhole skips the lens dimensions
         pinhole_dim = sampler.dimension();
@@ -974,7 +1031,7 @@ void PathIntegrator::trace_packet(std::span<const CameraSample> samples,
         }
         for (int j = 0; j < cam.count; ++j) {
             const CameraSample &cs = samples[size_t(base + j)];
-            sampling::SobolSampler sampler(seed_);
+            sampling::SobolSampler sampler(seed_, pattern_);
             const CameraRay cray = camera_ray(cs, sampler);
             cam.o.set(j, cray.ray.o);
             cam.d.set(j, cray.ray.d);

@@ -46,7 +46,7 @@ inline float avg(Rgb v) { return v.average(); }
 }  // namespace
 
 VolPathIntegrator::VolPathIntegrator(const Scene &scene, uint32_t seed, int max_depth)
-    : scene_(scene), seed_(seed), max_depth_(max_depth),
+    : scene_(scene), seed_(seed), pattern_(scene.settings.sample_pattern), max_depth_(max_depth),
       differentials_(!(applicable_specializations(scene) & kSpecDifferentials)) {
     for (const auto &m : scene.materials) has_interfaces_ = has_interfaces_ || m->is_interface();
 }
@@ -61,7 +61,7 @@ std::string VolPathIntegrator::describe() const {
 }
 
 Sample VolPathIntegrator::evaluate(const CameraSample &cs) const {
-    sampling::SobolSampler sampler(seed_);
+    sampling::SobolSampler sampler(seed_, pattern_);
     CameraRay cray = generate_camera_ray(scene_, cs, sampler, differentials_);
     Sample s;
     s.depth = kInfinity;
@@ -86,7 +86,7 @@ void VolPathIntegrator::evaluate_batch(std::span<const CameraSample> samples,
 
 Rgb VolPathIntegrator::radiance(const Ray &ray, int medium, int hero, uint32_t px, uint32_t py,
                                 uint32_t index) const {
-    sampling::SobolSampler sampler(seed_);
+    sampling::SobolSampler sampler(seed_, pattern_);
     sampler.start_pixel_sample(px, py, index);
     CameraRay cray;
     cray.ray = ray;

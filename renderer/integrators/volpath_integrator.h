@@ -34,7 +34,8 @@ namespace tessera {
 
 class VolPathIntegrator final : public SampleSource {
   public:
-    /// `scene` must outlive the integrator. `seed` selects the sample sequence.
+    /// `scene` must outlive the integrator. `seed` selects the sample sequence, whose pattern
+    /// is the scene's (RenderSettings::sample_pattern).
     VolPathIntegrator(const Scene &scene, uint32_t seed, int max_depth);
     uint32_t width() const override { return uint32_t(scene_.settings.width); }
     uint32_t height() const override { return uint32_t(scene_.settings.height); }
@@ -59,6 +60,7 @@ class VolPathIntegrator final : public SampleSource {
                      sampling::SobolSampler &sampler) const;
     const Scene &scene_;
     uint32_t seed_;
+    sampling::SamplePattern pattern_;
     int max_depth_;
     bool differentials_;
     /// Some surface is an "interface" bounding a medium: shadow rays in vacuum must find their

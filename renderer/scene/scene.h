@@ -16,6 +16,7 @@
 #include "renderer/shading/material.h"
 #include "renderer/shading/texture.h"
 #include "sampling/aov_set.h"
+#include "sampling/sequence.h"
 
 namespace tessera {
 
@@ -48,6 +49,10 @@ struct RenderSettings {
     /// volpath renders participating media.
     bool volpath = true;
     uint32_t seed = 0;
+    /// The points every sampler of the render draws (sampling/sequence.h): the scene's
+    /// Sampler "sobol" or "halton" asks for one global low-discrepancy sequence, the others
+    /// for padded 2D patterns.
+    sampling::SamplePattern sample_pattern = sampling::SamplePattern::Padded;
     std::string output;              ///< Film "filename" (pbrt default "pbrt.exr")
     /// pbrt-v4 sensor imaging ratio: (shutterclose - shutteropen) * Film "iso" / 100.
     float image_scale = 1.f;

@@ -182,7 +182,10 @@ void apply_film(const SceneDesc &d, RenderSettings &s) {
     }
 }
 
-/// Sampler: samples per pixel and seed (Tessera always uses its Owen-scrambled Sobol points).
+/// Sampler: samples per pixel, seed and pattern. Tessera always draws Owen-scrambled Sobol
+/// points; pbrt-v4's global sequences ("sobol", "halton") map to SamplePattern::Sobol, whose
+/// dimensions stay jointly stratified, and its padded and stratified samplers ("zsobol",
+/// "paddedsobol", "pmj02bn", "stratified", "independent") to SamplePattern::Padded.
 void apply_sampler(const SceneDesc &d, RenderSettings &s) {
     if (d.sampler.present) {
         static const char *kSamplers[] = {"zsobol", "paddedsobol", "sobol",      "halton",
@@ -191,6 +194,9 @@ void apply_sampler(const SceneDesc &d, RenderSettings &s) {
             std::end(kSamplers))
             throw SceneError(d.sampler.loc, "unknown sampler type \"" + d.sampler.type + "\"");
         s.spp = d.sampler.params.get_int("pixelsamples", 16);
+        s.sample_pattern = d.sampler.type == "sobol" || d.sampler.type == "halton"
+                               ? sampling::SamplePattern::Sobol
+                               : sampling::SamplePattern::Padded;
         // Tessera always uses its Owen-scrambled Sobol sequence; the other sampler parameters
         // (seed, randomization, jitter) select variants of equal expectation.
         if (const Param *p = d.sampler.params.find("seed")) {

@@ -105,23 +105,27 @@ PacketComparison compare_packet_to_scalar(const Scene &scene, DirectStrategy str
     PathIntegrator packet(scene, 11, scene.settings.max_depth, strategy);
     REQUIRE((packet.specializations() & kSpecPacket) != 0);
     const uint32_t w = packet.width(), h = packet.height();
+    const sampling::SamplePattern pattern = scene.settings.sample_pattern;
+    auto camera_sample = [&](uint32_t seed, uint32_t x, uint32_t y, uint32_t i) {
+        return sched::camera_sample(seed, x, y, i, pattern);
+    };
     std::vector<std::vector<CameraSample>> batches;
     for (uint32_t y = 0; y < h; y += 3)
         for (uint32_t x = 0; x < w; x += 3) {
             std::vector<CameraSample> one_pixel;
             for (uint32_t i = 0; i < 37; ++i)
-                one_pixel.push_back(sched::camera_sample(5, x, y, i));
+                one_pixel.push_back(camera_sample(5, x, y, i));
             batches.push_back(one_pixel);
         }
     for (uint32_t y = 0; y < h; ++y) {
         std::vector<CameraSample> row;
         for (uint32_t x = 0; x < w; ++x)
-            row.push_back(sched::camera_sample(5, x, y, x % 5));
+            row.push_back(camera_sample(5, x, y, x % 5));
         batches.push_back(row);
     }
-    batches.push_back({sched::camera_sample(5, 3, 4, 0), sched::camera_sample(5, 3, 4, 1)});
-    batches.push_back({sched::camera_sample(5, 9, 2, 7), sched::camera_sample(5, 1, 1, 2),
-                       sched::camera_sample(5, 15, 11, 3)});
+    batches.push_back({camera_sample(5, 3, 4, 0), camera_sample(5, 3, 4, 1)});
+    batches.push_back({camera_sample(5, 9, 2, 7), camera_sample(5, 1, 1, 2),
+                       camera_sample(5, 15, 11, 3)});
     return compare_batches(packet, batches);
 }
 
@@ -340,6 +344,7 @@ TEST_CASE("the packet kernel gives every sample the scalar path's value") {
         "";
     auto scene = scene_from_string(scene_text);
     REQUIRE((applicable_specializations(*scene) & kSpecPacket) != 0);
+    REQUIRE(scene->settings.sample_pattern == sampling::SamplePattern::Padded);
     for (DirectStrategy strategy :
          {DirectStrategy::Mis, DirectStrategy::LightOnly, DirectStrategy::BsdfOnly}) {
         CAPTURE(int(strategy));
@@ -347,6 +352,23 @@ TEST_CASE("the packet kernel gives every sample the scalar path's value") {
         CHECK(c.compared > 600);
         CHECK(c.lit > c.compared / 2);  // not a comparison of black samples
         CHECK(c.bounced >= 10);         // and of paths that go on past their second vertex
+        CHECK(c.exact > c.compared * 9 / 10);
+    }
+
+    // Sampler "sobol": the lanes draw SamplePattern::Sobol's values (gathered matrix columns
+    // of each lane's own dimension).
+    const std::string zsobol = "Sampler \"zsobol\"";
+    std::string sobol_text = scene_text;
+    REQUIRE(sobol_text.find(zsobol) != std::string::npos);
+    sobol_text.replace(sobol_text.find(zsobol), zsobol.size(), "Sampler \"sobol\"");
+    auto sobol_scene = scene_from_string(sobol_text);
+    REQUIRE(sobol_scene->settings.sample_pattern == sampling::SamplePattern::Sobol);
+    for (DirectStrategy strategy : {DirectStrategy::Mis, DirectStrategy::BsdfOnly}) {
+        CAPTURE(int(strategy));
+        const PacketComparison c = compare_packet_to_scalar(*sobol_scene, strategy);
+        CHECK(c.compared > 600);
+        CHECK(c.lit > c.compared / 2);
+        CHECK(c.bounced >= 5);
         CHECK(c.exact > c.compared * 9 / 10);
     }
 
