@@ -112,29 +112,33 @@ time_budget)
     [[ -s timed.exr ]] || fail "no image"
     ;;
 interrupt)
-    # Ctrl-C on mpirun (it sends SIGTERM to every rank): the image and a checkpoint are
-    # written, and the checkpoint resumes on another number of ranks.
+    # SIGTERM to every rank (what a batch system's cancel sends; mpirun's Ctrl-C sends it too,
+    # but kills the ranks 1 s later, a race on a loaded machine): the image and a checkpoint
+    # are written, mpirun exits 0, and the checkpoint resumes on another number of ranks.
     timeout 60 mpirun --oversubscribe -np 2 "$tessera" render "$scene" --resolution 128x96 \
         --spp 1000000 --time 40 --threads 1 -o int.exr -q >int.log 2>&1 &
     pid=$!
-    # Interrupt once both ranks catch SIGTERM (bit 15 of SigCgt: the render's handler is
-    # installed) and have rendered a moment; a fixed delay raced the start-up on a loaded
-    # machine.
+    # Signal once both ranks catch SIGTERM (bit 15 of SigCgt: the render's handler is
+    # installed) and have rendered a moment.
+    ranks=()
     for _ in $(seq 300); do
-        ready=0
+        ranks=()
         for p in $(pgrep -f "$tessera render"); do
             tr '\0' '\n' <"/proc/$p/environ" 2>/dev/null | grep -q '^OMPI_COMM_WORLD_RANK=' ||
                 continue  # mpirun itself, or another test's render
             mask=$(awk '/^SigCgt:/ {print $2}' "/proc/$p/status" 2>/dev/null)
-            [[ -n "$mask" ]] && (( (16#$mask >> 14) & 1 )) && ready=$((ready + 1))
+            [[ -n "$mask" ]] && (( (16#$mask >> 14) & 1 )) && ranks+=("$p")
         done
-        (( ready >= 2 )) && break
+        (( ${#ranks[@]} >= 2 )) && break
         sleep 0.1
     done
+    (( ${#ranks[@]} >= 2 )) || fail "the ranks did not start rendering"
     sleep 2
-    kill -INT "$pid"
+    kill -TERM "${ranks[@]}"
     wait "$pid"
-    [[ -s int.exr && -s int.checkpoint.exr ]] || fail "no image or checkpoint after Ctrl-C"
+    rc=$?
+    [[ $rc -eq 0 ]] || fail "mpirun exited $rc after SIGTERM to the ranks"
+    [[ -s int.exr && -s int.checkpoint.exr ]] || fail "no image or checkpoint after SIGTERM"
     mpi 3 resume.log "$scene" --resolution 128x96 --spp 1000000 --time 1 --threads 1 \
         --resume int.checkpoint.exr -o resumed.exr
     [[ $rc -eq 0 && -s resumed.exr ]] || fail "resume of the interrupted render failed ($rc)"
