@@ -54,6 +54,16 @@ json() {  # json FILE EXPR: a value of the stats JSON (python3)
     python3 -c "import json,sys; j=json.load(open(sys.argv[1])); print($2)" "$1"
 }
 
+# rank_pids [RANK]: the pids of this test's tessera ranks (their environment names
+# OMPI_COMM_WORLD_RANK: not mpirun, not timeout, not another build's render), or of one rank.
+rank_pids() {
+    local p
+    for p in $(pgrep -f "$tessera render"); do
+        tr '\0' '\n' <"/proc/$p/environ" 2>/dev/null |
+            grep -qx "OMPI_COMM_WORLD_RANK=${1:-[0-9]*}" && echo "$p"
+    done
+}
+
 # A small render: 64x48, a few passes.
 common=(--resolution 64x48 --seed 3 -q)
 
@@ -123,9 +133,7 @@ interrupt)
     ranks=()
     for _ in $(seq 300); do
         ranks=()
-        for p in $(pgrep -f "$tessera render"); do
-            tr '\0' '\n' <"/proc/$p/environ" 2>/dev/null | grep -q '^OMPI_COMM_WORLD_RANK=' ||
-                continue  # mpirun itself, or another test's render
+        for p in $(rank_pids); do
             mask=$(awk '/^SigCgt:/ {print $2}' "/proc/$p/status" 2>/dev/null)
             [[ -n "$mask" ]] && (( (16#$mask >> 14) & 1 )) && ranks+=("$p")
         done
@@ -151,12 +159,7 @@ rank_dies)
     pid=$!
     for _ in $(seq 100); do [[ -s dies.checkpoint.exr ]] && break; sleep 0.1; done
     sleep 1.5
-    victim=""
-    for p in $(pgrep -f "$tessera render"); do
-        if tr '\0' '\n' <"/proc/$p/environ" 2>/dev/null | grep -qx OMPI_COMM_WORLD_RANK=1; then
-            victim=$p
-        fi
-    done
+    victim=$(rank_pids 1)
     [[ -n "$victim" ]] || fail "rank 1 not found"
     kill -9 "$victim"
     wait "$pid"
