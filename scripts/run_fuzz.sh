@@ -3,10 +3,11 @@
 # for a bounded time; fails when a target crashes, leaks, hangs, runs out of memory, or throws
 # anything but a SceneError.
 #
-#   scripts/run_fuzz.sh [SECONDS_PER_TARGET]      (default 20: about a minute for the three)
+#   scripts/run_fuzz.sh [SECONDS_PER_TARGET]      (default 20: about a minute and a half for the four)
 #
 # Targets: fuzz_pbrt (scene tokenizer, parser and builder), fuzz_ply (PLY reader),
-# fuzz_obj (OBJ/MTL via tinyobjloader). Seeds: the example scenes, the broken-scene corpus
+# fuzz_obj (OBJ/MTL via tinyobjloader), fuzz_image (the native TGA, PFM and PNG readers: the first
+# byte of an input picks the format, the rest is the file). Seeds: the example scenes, the broken-scene corpus
 # (tests/broken) and tests/fuzz/seeds; the corpus a run grows is kept in
 # $FUZZ_BUILD_DIR/corpus/<target> for the next run. A crashing input is written to
 # $FUZZ_BUILD_DIR/artifacts/; copy it to tests/fuzz/regressions/<pbrt|ply|obj>/ (with a name
@@ -14,7 +15,7 @@
 # (tests/renderer/test_fuzz_regressions.cpp).
 #
 # Environment: FUZZ_BUILD_DIR (default build-fuzz), JOBS (default 2), CXX_FUZZ (default clang++),
-# FUZZ_TARGETS (default "fuzz_pbrt fuzz_ply fuzz_obj"), FUZZ_ARGS (extra libFuzzer flags, e.g.
+# FUZZ_TARGETS (default "fuzz_pbrt fuzz_ply fuzz_obj fuzz_image"), FUZZ_ARGS (extra libFuzzer flags, e.g.
 # "-jobs=2 -workers=2"). Needs the Debian packages clang and libclang-rt-dev (libFuzzer and the
 # sanitizer runtimes); scripts/setup.sh installs them.
 set -uo pipefail
@@ -24,7 +25,7 @@ seconds="${1:-20}"
 build="${FUZZ_BUILD_DIR:-$root/build-fuzz}"
 jobs="${JOBS:-2}"
 cxx="${CXX_FUZZ:-clang++}"
-targets=(${FUZZ_TARGETS:-fuzz_pbrt fuzz_ply fuzz_obj})
+targets=(${FUZZ_TARGETS:-fuzz_pbrt fuzz_ply fuzz_obj fuzz_image})
 
 command -v "$cxx" >/dev/null || { echo "run_fuzz: $cxx not found (apt-get install clang)" >&2; exit 2; }
 

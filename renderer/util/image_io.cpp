@@ -1,5 +1,6 @@
 // Image files: multilayer EXR (OpenEXR), 8-bit display images (libpng), reading back
-// (OpenImageIO through the image module, renderer/util/image_backend.h).
+// (TGA, PFM and PNG natively, renderer/util/native_image.h; the rest with OpenImageIO through
+// the image module, renderer/util/image_backend.h).
 #include "renderer/util/image_io.h"
 
 #include <OpenEXR/ImfChannelList.h>
@@ -25,6 +26,7 @@
 
 #include "renderer/util/limits.h"
 #include "renderer/util/error.h"
+#include "renderer/util/native_image.h"
 
 namespace tessera {
 namespace {
@@ -157,10 +159,17 @@ OpenedImage open_image(const std::string &path, const FileLoc &loc, const std::s
     // A FIFO or device would block the reader or never end.
     if (!fs::is_regular_file(st)) img.fail("not a regular file");
     std::string err;
-    try {
-        img.in = imageio::backend().open(path, unassociated_alpha, &err);
-    } catch (const std::runtime_error &e) {
-        img.fail(e.what());  // the module is missing
+    // The formats read natively first (renderer/util/native_image.h); the image module for
+    // the rest.
+    switch (imageio::open_native(path, unassociated_alpha, &img.in, &err)) {
+    case imageio::NativeOpen::Opened: break;
+    case imageio::NativeOpen::Failed: img.fail(err);
+    case imageio::NativeOpen::Declined:
+        try {
+            img.in = imageio::backend().open(path, unassociated_alpha, &err);
+        } catch (const std::runtime_error &e) {
+            img.fail(e.what());  // the module is missing
+        }
     }
     if (!img.in) img.fail(err.empty() ? "not an image file OpenImageIO can read" : err);
     img.spec = img.in->spec();

@@ -356,6 +356,25 @@ bad_sampler_key)
     expect_stderr_line 'unknown integrator "nosuch"'
     expect_no_output out
     ;;
+native_images)
+    # A scene whose images are TGA, PFM or PNG renders without the image module (OpenImageIO;
+    # renderer/util/native_image.h); an image of another format needs the module, and the error
+    # says where it looked.
+    examples="$(cd "$(dirname "${BASH_SOURCE[0]}")/../../examples" && pwd)"
+    for s in textured environment; do
+        TESSERA_IMAGE_MODULE=/nonexistent/libtessera_oiio.so \
+            run render "$examples/$s/scene.pbrt" --spp 1 --resolution 32x24 -o "$s.exr" -q
+        expect_rc 0
+        [[ -s "$s.exr" && -s "$s.png" ]] || fail "$s: no EXR or PNG"
+    done
+    printf 'BM not really a bitmap' >tex.bmp
+    write_scene_with_line scene.pbrt 12 \
+        'Texture "t" "spectrum" "imagemap" "string filename" "tex.bmp" Material "diffuse" "texture reflectance" "t"'
+    TESSERA_IMAGE_MODULE=/nonexistent/libtessera_oiio.so run render scene.pbrt -o out.exr --stats out.json -q
+    expect_rc 2
+    expect_stderr_line 'scene.pbrt:12: .*tex.bmp.*cannot load the image module'
+    expect_no_output out
+    ;;
 no_specialize)
     # --no-specialize forces the general code paths: the same image, reported in --stats; a
     # bad name is an error naming the valid ones, before anything is rendered.

@@ -22,11 +22,13 @@
 #include "renderer/input/ply_reader.h"
 #include "renderer/input/pbrt_parser.h"
 #include "renderer/scene/scene.h"
+#include "renderer/util/native_image.h"
+#include "renderer/util/limits.h"
 
 namespace tessera::fuzz {
 
 /// Which loader an input goes to.
-enum class Target { Pbrt, Ply, Obj };
+enum class Target { Pbrt, Ply, Obj, Image };
 
 /// A scratch folder of this process for inputs that must be files (the mesh loaders take paths).
 inline const std::filesystem::path &scratch_dir() {
@@ -91,6 +93,30 @@ inline void run_obj(std::string_view bytes) {
     build_scene(desc, ov);
 }
 
+/// Reads `bytes` with the native image readers (renderer/util/native_image.h): the first byte
+/// picks the name (.tga, .pfm or .png: TGA is known by its extension only) and whether alpha
+/// is kept unassociated, the rest is the file. An opened image is read whole when open_image
+/// would allow it (the size limit of renderer/util/limits.h, here also 64 MiB of floats).
+/// Failures are return values, never exceptions.
+inline void run_image(std::string_view bytes) {
+    if (bytes.empty()) return;
+    const unsigned char sel = static_cast<unsigned char>(bytes[0]);
+    static const char *kNames[] = {"fuzz.tga", "fuzz.pfm", "fuzz.png"};
+    std::unique_ptr<imageio::ImageInput> in;
+    std::string err;
+    if (imageio::open_native_memory(std::string(bytes.substr(1)), kNames[sel % 3],
+                                    (sel & 0x80) != 0, &in,
+                                    &err) != imageio::NativeOpen::Opened)
+        return;
+    const imageio::ImageSpec &s = in->spec();
+    const uint64_t n = uint64_t(s.width) * uint64_t(s.height) * uint64_t(s.nchannels);
+    if (s.width <= 0 || s.height <= 0 || s.nchannels <= 0 ||
+        uint64_t(s.width) * uint64_t(s.height) > kMaxImagePixels || n > (uint64_t(1) << 24))
+        return;
+    std::vector<float> px(n);
+    in->read_image(0, s.nchannels, imageio::PixelType::Float, px.data());
+}
+
 /// Runs one input; SceneError (bad input, reported as file:line) is the accepted way to fail.
 inline void run(Target t, std::string_view bytes) {
     try {
@@ -98,6 +124,7 @@ inline void run(Target t, std::string_view bytes) {
         case Target::Pbrt: run_pbrt(bytes); break;
         case Target::Ply: run_ply(bytes); break;
         case Target::Obj: run_obj(bytes); break;
+        case Target::Image: run_image(bytes); break;
         }
     } catch (const SceneError &) {
     }

@@ -47,3 +47,4 @@ void replay(const std::string &target, fuzz::Target t) {
 TEST_CASE("fuzz regressions: pbrt parser and scene builder") { replay("pbrt", fuzz::Target::Pbrt); }
 TEST_CASE("fuzz regressions: PLY loader") { replay("ply", fuzz::Target::Ply); }
 TEST_CASE("fuzz regressions: OBJ loader") { replay("obj", fuzz::Target::Obj); }
+TEST_CASE("fuzz regressions: native image readers") { replay("image", fuzz::Target::Image); }
