@@ -1,6 +1,6 @@
 // What the two path tracers (path_integrator.h, volpath_integrator.h) share: the camera ray of a
-// camera sample, the ray differentials' footprint and texture context at a hit, and the film's
-// treatment of a path's radiance.
+// camera sample, the ray differentials' footprint and texture context at a hit, Russian
+// roulette, and the film's treatment of a path's radiance.
 #pragma once
 
 #include <algorithm>
@@ -85,6 +85,17 @@ inline CameraRay generate_camera_ray(const Scene &scene, const CameraSample &cs,
     r.weight *= filter_weight;
     return r;
 }
+
+/// Russian roulette's termination probability for a path whose throughput (beta times eta^2,
+/// pbrt-v4's roulette quantity) has largest component t < 1, after the second bounce:
+/// 1 - sqrt(t), i.e. the continuation probability sqrt(t) of Cycles
+/// (path_state_continuation_probability) where pbrt-v4 continues with probability t. Either is
+/// unbiased (a survivor's throughput is divided by its continuation probability); sqrt(t) lets
+/// paths of moderate throughput live longer, which costs time per sample and saves more in
+/// variance: at equal spp on 11 scenes (the Bitterli set, the examples) the robust relMSE fell
+/// 3-24% for 0.98-1.16x the time, 5-25% less time to equal error on every one (README,
+/// "Russian roulette"). The path tracer's packet kernel computes the same value lane-wise.
+inline float roulette_termination(float t) { return std::max(0.f, 1.f - std::sqrt(t)); }
 
 /// A path's radiance as the film takes it (pbrt-v4 RGBFilm): the sensor scale, the
 /// maxcomponentvalue clamp, then the white balance.

@@ -305,11 +305,12 @@ PathIntegrator::PathResult PathIntegrator::trace_impl(
         b.prev_ctx = LightSampleContext{si.p, si.n};
         ray = si.spawn_ray(bs->wi);
 
-        // Russian roulette (pbrt-v4): on throughput scaled by the squared relative IOR.
+        // Russian roulette on throughput scaled by the squared relative IOR (pbrt-v4), with
+        // Cycles' continuation probability (roulette_termination).
         // The roulette dimension is always consumed, but only hashed when it is used.
         float rr_max = (beta * eta_scale).max_value();
         if (rr_max < 1.f && b.depth > 1) {
-            float q = std::max(0.f, 1.f - rr_max);
+            float q = roulette_termination(rr_max);
             if (sampler.get_1d() < q)
                 break;
             beta /= 1.f - q;

@@ -3,7 +3,8 @@
 // For each camera sample: trace the primary ray through the filter-importance-sampled film
 // position; at every non-specular vertex sample one light (chosen proportionally to power) and
 // the BSDF, combining both strategies with the power heuristic (Veach 1997, ch. 9); Russian
-// roulette after the second bounce on throughput x eta^2 (pbrt-v4 PathIntegrator). Radiance
+// roulette after the second bounce on throughput x eta^2 (pbrt-v4 PathIntegrator), continuing
+// with probability sqrt of it (Cycles; roulette_termination in path_common.h). Radiance
 // that is NaN or Inf is left for the film to drop and count.
 #pragma once
 

@@ -979,7 +979,7 @@ template <class Result>
     V3 bt = mul(P.beta, f * (vabs(dot(wi, s.ns)) / pdf));
     const vf rr_max = max_value(bt);
     const vi rr = (rr_max < 1.f) & (P.depth > 1);
-    const vf q = vmax(splat(0.f), 1.f - rr_max);
+    const vf q = vmax(splat(0.f), 1.f - vsqrt(rr_max));  // roulette_termination
     const vi killed = rr & (u.u_rr < q);
     bt = select(rr, bt * (1.f / (1.f - q)), bt);
     const vi go_on = b & ~no_sample & ~fail & ~killed & ~is_black(bt);

@@ -394,12 +394,13 @@ VolPathIntegrator::PathResult VolPathIntegrator::trace(const CameraRay &cray, in
         ray.medium = si.medium_after(bs->wi, ray.medium);
         ray.ray = si.spawn_ray(bs->wi);
         if (beta.is_black() || !beta.is_finite()) break;
-        // Russian roulette (pbrt-v4): on throughput over the MIS ratio, times eta^2.
+        // Russian roulette on throughput over the MIS ratio, times eta^2 (pbrt-v4), with
+        // Cycles' continuation probability (roulette_termination).
         const Rgb rr_beta = beta * eta_scale / avg(r_u);
         const float u_rr = sampler.get_1d();
         const float rr_max = rr_beta.max_value();
         if (rr_max < 1.f && depth > 1) {
-            const float q = std::max(0.f, 1.f - rr_max);
+            const float q = roulette_termination(rr_max);
             if (u_rr < q) break;
             beta /= 1.f - q;
         }
