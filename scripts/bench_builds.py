@@ -42,11 +42,14 @@ def has_media(path):
         return 'MakeNamedMedium' in f.read()
 
 
-def render_s(binary, scene, args, tmp):
+def render_s(binary, scene, args, tmp, seed=None, out=None):
+    """Render seconds (stats wall_s) of a uniform render at args.spp, args.resolution and
+    args.threads; --deterministic unless a seed is given (scripts/bench_efficiency.py)."""
     stats = os.path.join(tmp, 'stats.json')
-    cmd = [binary, 'render', scene, '-o', os.path.join(tmp, 'out.exr'), '--no-png', '-q',
-           '--sampler', 'uniform', '--deterministic', '--spp', str(args.spp), '--resolution',
+    cmd = [binary, 'render', scene, '-o', out or os.path.join(tmp, 'out.exr'), '--no-png', '-q',
+           '--sampler', 'uniform', '--spp', str(args.spp), '--resolution',
            args.resolution, '--threads', str(args.threads), '--stats', stats]
+    cmd += ['--deterministic'] if seed is None else ['--seed', str(seed)]
     subprocess.run(cmd, check=True, capture_output=True, cwd=os.path.dirname(scene))
     with open(stats) as f:
         return float(json.load(f)['wall_s'])

@@ -15,25 +15,14 @@ and time ratios after/before and the efficiency gain (before error x time) / (af
 time): above 1, the after build reaches a given error sooner. Then the median gain.
 """
 import argparse
-import json
 import os
 import statistics
-import subprocess
 import sys
 import tempfile
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import image_error  # noqa: E402
-from bench_builds import default_scenes  # noqa: E402
-
-
-def render(binary, scene, args, seed, out, stats):
-    cmd = [binary, 'render', scene, '-o', out, '--no-png', '-q', '--sampler', 'uniform',
-           '--spp', str(args.spp), '--seed', str(seed), '--resolution', args.resolution,
-           '--threads', str(args.threads), '--stats', stats]
-    subprocess.run(cmd, check=True, capture_output=True, cwd=os.path.dirname(scene))
-    with open(stats) as f:
-        return float(json.load(f)['wall_s'])
+from bench_builds import default_scenes, render_s  # noqa: E402
 
 
 def main():
@@ -58,7 +47,7 @@ def main():
         for seed in range(1, 2 * args.pairs + 1):
             for b, binary in builds.items():
                 out = os.path.join(tmp, f'{b}-{seed}.exr')
-                times[b] += render(binary, scene, args, seed, out, os.path.join(tmp, 's.json'))
+                times[b] += render_s(binary, scene, args, tmp, seed=seed, out=out)
                 imgs[b].append(image_error.read_exr(out))
         err = {b: statistics.mean(image_error.rel_mse_robust(v[2 * k], v[2 * k + 1])
                                   for k in range(args.pairs))
