@@ -91,10 +91,11 @@ inline CameraRay generate_camera_ray(const Scene &scene, const CameraSample &cs,
 /// 1 - sqrt(t), i.e. the continuation probability sqrt(t) of Cycles
 /// (path_state_continuation_probability) where pbrt-v4 continues with probability t. Either is
 /// unbiased (a survivor's throughput is divided by its continuation probability); sqrt(t) lets
-/// paths of moderate throughput live longer, which costs time per sample and saves more in
-/// variance: at equal spp on 11 scenes (the Bitterli set, the examples) the robust relMSE fell
-/// 3-24% for 0.98-1.16x the time, 5-25% less time to equal error on every one (README,
-/// "Russian roulette"). The path tracer's packet kernel computes the same value lane-wise.
+/// paths of moderate throughput live longer, which costs time per sample and usually saves
+/// more in variance: over the examples and ../shared/scenes the time to equal error improved
+/// by a median 1.085-1.12x, a few scenes (examples/cornell-box, classroom) lost up to 3%
+/// (README, "Russian roulette"). The path tracer's packet kernel computes the same value
+/// lane-wise.
 inline float roulette_termination(float t) { return std::max(0.f, 1.f - std::sqrt(t)); }
 
 /// A path's radiance as the film takes it (pbrt-v4 RGBFilm): the sensor scale, the
