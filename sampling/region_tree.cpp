@@ -59,7 +59,7 @@ namespace {
 /// Bilinear interpolation of a (w + 1) x (h + 1) table at local coordinates (u, v) in
 /// [0, w] x [0, h].
 template <class T>
-double interp(const std::vector<T> &t, int w, int h, double u, double v) {
+[[gnu::always_inline]] inline double interp(const std::vector<T> &t, int w, int h, double u, double v) {
     u = std::clamp(u, 0.0, double(w));
     v = std::clamp(v, 0.0, double(h));
     int i = std::min(int(u), w - 1), j = std::min(int(v), h - 1);
@@ -72,24 +72,26 @@ double interp(const std::vector<T> &t, int w, int h, double u, double v) {
 
 }  // namespace
 
+namespace {
+/// Pixel offset d along an axis of `span` pixels -> table coordinate, with n cells of `cell`
+/// pixels (1 / cell = inv), the last one `span - (n - 1) * cell` wide (1 / width = inv_last).
+inline double to_table(double d, double span, int n, int cell, double inv, double inv_last) {
+    const double dc = std::clamp(d, 0.0, span);
+    const int i = std::min(int(dc * inv), n - 1);
+    return i + (dc - double(i) * cell) * (i < n - 1 ? inv : inv_last);
+}
+}  // namespace
+
 double RegionTree::table_x(double x) const {
     const double d = x - grown_.x0;
     if (cell_ == 1) return d;
-    const double span = double(grown_.width());
-    const double dc = std::clamp(d, 0.0, span);
-    const int i = std::min(int(dc / cell_), cols_ - 1);
-    const double start = double(i) * cell_;
-    return i + (dc - start) / std::min(double(cell_), span - start);
+    return to_table(d, double(grown_.width()), cols_, cell_, inv_cell_, inv_last_x_);
 }
 
 double RegionTree::table_y(double y) const {
     const double d = y - grown_.y0;
     if (cell_ == 1) return d;
-    const double span = double(grown_.height());
-    const double dc = std::clamp(d, 0.0, span);
-    const int j = std::min(int(dc / cell_), rows_ - 1);
-    const double start = double(j) * cell_;
-    return j + (dc - start) / std::min(double(cell_), span - start);
+    return to_table(d, double(grown_.height()), rows_, cell_, inv_cell_, inv_last_y_);
 }
 
 double RegionTree::integral(const FloatRect &r) const {
@@ -117,41 +119,75 @@ bool RegionTree::has_unknown(const FloatRect &r) const {
     return at(i1, j1) - at(i0, j1) - at(i1, j0) + at(i0, j0) > 0;
 }
 
-// The split position along `axis` where the error integral of `r` is halved. H(t), the integral
-// from r's lower bound to t, is nondecreasing and linear between pixel boundaries, so a binary
-// search over the boundaries inside r finds the pixel where H crosses total / 2 and linear
-// interpolation inside it gives the exact position. Where H is flat at total / 2 (no error
-// between two features) the split goes to the middle of the flat interval, so it does not hug
-// one side. The result is clamped so that both children are at least min_extent wide.
+double RegionTree::from_table(int axis, double t) const {
+    const int origin = axis == 0 ? grown_.x0 : grown_.y0;
+    if (cell_ == 1)
+        return origin + t;
+    const int n = axis == 0 ? cols_ : rows_;
+    const double span = double(axis == 0 ? grown_.width() : grown_.height());
+    const int i = std::clamp(int(t), 0, n - 1);
+    const double start = double(i) * cell_;
+    return origin + start + (t - i) * std::min(double(cell_), span - start);
+}
+
+// The split position along `axis` where the error integral of `r` is halved. The search runs in
+// table coordinates, where the table's entries sit at integer positions (cell boundaries; pixel
+// boundaries for a per-pixel table) and the integral is bilinear between them: H(t), the
+// integral from r's lower bound to t, is nondecreasing and linear between boundaries, so a
+// binary search over the boundaries inside r finds the cell where H crosses total / 2 and
+// linear interpolation inside it gives the exact position, mapped back to pixels (linear inside
+// a cell). Where H is flat at total / 2 (no error between two features) the split goes to the
+// middle of the flat interval, so it does not hug one side. The result is clamped so that both
+// children are at least min_extent wide.
 double RegionTree::split_position(const FloatRect &r, int axis, double total) const {
-    const double lo = axis == 0 ? r.x0 : r.y0, hi = axis == 0 ? r.x1 : r.y1;
     const double half = 0.5 * total;
-    // cum(t) = F(t, r.hi') - F(t, r.lo') - base, with F the bilinear-interpolated table and
-    // primes the other axis; base (the lower edge's terms) is computed once, so an evaluation
-    // costs 2 interpolations instead of 4.
-    const int w = cols_, h = rows_;
+    const double lo = axis == 0 ? table_x(r.x0) : table_y(r.y0);
+    const double hi = axis == 0 ? table_x(r.x1) : table_y(r.y1);
     const double q0 = axis == 0 ? table_y(r.y0) : table_x(r.x0);
     const double q1 = axis == 0 ? table_y(r.y1) : table_x(r.x1);
-    auto strip = [&](double t) {
-        return axis == 0 ? interp(sat_, w, h, table_x(t), q1) - interp(sat_, w, h, table_x(t), q0)
-                         : interp(sat_, w, h, q1, table_y(t)) - interp(sat_, w, h, q0, table_y(t));
+    const int n = axis == 0 ? cols_ : rows_, m = axis == 0 ? rows_ : cols_;
+    const size_t stride = size_t(cols_) + 1;
+    // The across-axis interpolation (rows j0, j0 + 1 at weight f0; j1, j1 + 1 at f1) is the same
+    // for every position along the axis.
+    auto across = [m](double q, int &j, double &f) {
+        q = std::clamp(q, 0.0, double(m));
+        j = std::min(int(q), m - 1);
+        f = q - j;
+    };
+    int j0, j1;
+    double f0, f1;
+    across(q0, j0, f0);
+    across(q1, j1, f1);
+    const double *t = sat_.data();
+    const size_t step = axis == 0 ? stride : 1, along = axis == 0 ? 1 : stride;
+    // The strip integral from the table's origin to boundary k along the axis, between q0 and q1.
+    auto strip_at = [&](int k) {
+        const double *c = t + size_t(k) * along;
+        const double *r0 = c + size_t(j0) * step, *r1 = c + size_t(j1) * step;
+        return (r1[0] + f1 * (r1[step] - r1[0])) - (r0[0] + f0 * (r0[step] - r0[0]));
+    };
+    auto strip = [&](double u) {
+        u = std::clamp(u, 0.0, double(n));
+        const int k = std::min(int(u), n - 1);
+        const double s0 = strip_at(k);
+        return s0 + (u - k) * (strip_at(k + 1) - s0);
     };
     const double base = strip(lo);
-    auto cum = [&](double t) { return strip(t) - base; };
-    // Pixel boundaries strictly inside (lo, hi): k0 .. k1.
+    auto cum = [&](int k) { return strip_at(k) - base; };
+    // Boundaries strictly inside (lo, hi): k0 .. k1.
     const int k0 = int(std::floor(lo)) + 1, k1 = int(std::ceil(hi)) - 1;
 
     // First boundary with cum >= half (k1 + 1 if none): the crossing lies in [prev, next].
     int a = k0, b = k1 + 1;
     while (a < b) {
-        int m = a + (b - a) / 2;
-        if (cum(m) >= half)
-            b = m;
+        int mid = a + (b - a) / 2;
+        if (cum(mid) >= half)
+            b = mid;
         else
-            a = m + 1;
+            a = mid + 1;
     }
     double next = a <= k1 ? double(a) : hi, prev = a > k0 ? double(a - 1) : lo;
-    double c_prev = a > k0 ? cum(prev) : 0.0, c_next = a <= k1 ? cum(next) : total;
+    double c_prev = a > k0 ? cum(a - 1) : 0.0, c_next = a <= k1 ? cum(a) : total;
     double first =
         c_next > c_prev ? prev + (half - c_prev) / (c_next - c_prev) * (next - prev) : prev;
 
@@ -159,20 +195,23 @@ double RegionTree::split_position(const FloatRect &r, int axis, double total) co
     a = k0 - 1;
     b = k1;
     while (a < b) {
-        int m = a + (b - a + 1) / 2;
-        if (cum(m) <= half)
-            a = m;
+        int mid = a + (b - a + 1) / 2;
+        if (cum(mid) <= half)
+            a = mid;
         else
-            b = m - 1;
+            b = mid - 1;
     }
     double prev2 = a >= k0 ? double(a) : lo, next2 = a < k1 ? double(a + 1) : hi;
-    double c_prev2 = a >= k0 ? cum(prev2) : 0.0, c_next2 = a < k1 ? cum(next2) : total;
+    double c_prev2 = a >= k0 ? cum(a) : 0.0, c_next2 = a < k1 ? cum(a + 1) : total;
     double last = c_next2 > c_prev2
                       ? prev2 + (half - c_prev2) / (c_next2 - c_prev2) * (next2 - prev2)
                       : next2;
 
-    double t = 0.5 * (std::clamp(first, lo, hi) + std::clamp(last, lo, hi));
-    return std::clamp(t, lo + params_.min_extent, hi - params_.min_extent);
+    // Both crossings lie inside one cell each, where the map to pixels is linear.
+    const double plo = axis == 0 ? r.x0 : r.y0, phi = axis == 0 ? r.x1 : r.y1;
+    const double x = 0.5 * (std::clamp(from_table(axis, std::clamp(first, lo, hi)), plo, phi) +
+                            std::clamp(from_table(axis, std::clamp(last, lo, hi)), plo, phi));
+    return std::clamp(x, plo + params_.min_extent, phi - params_.min_extent);
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -246,6 +285,15 @@ size_t RegionTree::rebuild(const ErrorImage &errors, const RegionTreeParams &par
             out[i + 1] = above[i + 1] + acc;
         }
     }
+    if (!params.area_weighted) {
+        max_.resize(size_t(w) * size_t(h));
+        for (j = 0; j < h; ++j) {
+            const float *row = src(j);
+            double *out = &max_[size_t(j) * size_t(w)];
+            for (int i = 0; i < w; ++i) out[i] = clean(row[i]);
+        }
+        build_pyramids();
+    }
     // The count table is built only while some pixel lacks an estimate (early passes).
     if (bad) {
         any_unknown_ = true;
@@ -295,6 +343,9 @@ size_t RegionTree::rebuild_cells(const CellErrorImage &cells, const RegionTreePa
     rows_ = cells.rows;
     if (grown_.empty())
         return 0;
+    inv_cell_ = 1.0 / cell_;
+    inv_last_x_ = 1.0 / (grown_.width() - (cols_ - 1) * cell_);
+    inv_last_y_ = 1.0 / (grown_.height() - (rows_ - 1) * cell_);
     const size_t stride = size_t(cols_) + 1;
     sat_.assign(stride * (size_t(rows_) + 1), 0.0);
     unknown_sat_.assign(sat_.size(), 0u);
@@ -312,7 +363,80 @@ size_t RegionTree::rebuild_cells(const CellErrorImage &cells, const RegionTreePa
         }
     }
     any_unknown_ = unknown_sat_.back() > 0;
+    if (!params.area_weighted) {
+        max_.resize(size_t(cols_) * size_t(rows_));
+        for (int j = 0; j < rows_; ++j) {
+            const double ch = std::min(cell_, grown_.height() - j * cell_);
+            for (int i = 0; i < cols_; ++i) {
+                const double cw = std::min(cell_, grown_.width() - i * cell_);
+                const size_t k = size_t(j) * size_t(cols_) + size_t(i);
+                const double v = cells.sum[k];
+                max_[k] = (v > 0 && v < kInf) ? v / (cw * ch) : 0.0;
+            }
+        }
+        build_pyramids();
+    }
     return build_root();
+}
+
+void RegionTree::build_pyramids() {
+    max_.resize(size_t(cols_) * size_t(rows_));
+    min_.assign(max_.begin(), max_.end());
+    level_.assign(1, 0);
+    level_cols_.assign(1, cols_);
+    level_rows_.assign(1, rows_);
+    while (level_cols_.back() > 1 || level_rows_.back() > 1) {
+        const int pc = level_cols_.back(), pr = level_rows_.back();
+        const int c = (pc + 1) / 2, r = (pr + 1) / 2;
+        const size_t prev = level_.back(), base = prev + size_t(pc) * size_t(pr);
+        max_.resize(base + size_t(c) * size_t(r));
+        min_.resize(max_.size());
+        for (int j = 0; j < r; ++j) {
+            const size_t y0 = prev + size_t(2 * j) * size_t(pc);
+            const size_t y1 = prev + size_t(std::min(2 * j + 1, pr - 1)) * size_t(pc);
+            for (int i = 0; i < c; ++i) {
+                const size_t x0 = size_t(2 * i), x1 = size_t(std::min(2 * i + 1, pc - 1));
+                const size_t k = base + size_t(j) * size_t(c) + size_t(i);
+                max_[k] = std::max(std::max(max_[y0 + x0], max_[y0 + x1]),
+                                   std::max(max_[y1 + x0], max_[y1 + x1]));
+                min_[k] = std::min(std::min(min_[y0 + x0], min_[y0 + x1]),
+                                   std::min(min_[y1 + x0], min_[y1 + x1]));
+            }
+        }
+        level_.push_back(base);
+        level_cols_.push_back(c);
+        level_rows_.push_back(r);
+    }
+}
+
+void RegionTree::error_range(const FloatRect &r, double &lo, double &hi) const {
+    lo = hi = 0;
+    // The cells with positive coverage: table coordinates rounded outward, as has_unknown.
+    PixelBounds p = intersect(r.outward(), grown_);
+    if (p.empty())
+        return;
+    int i0 = (p.x0 - grown_.x0) / cell_, j0 = (p.y0 - grown_.y0) / cell_;
+    int i1 = std::min(cols_, (p.x1 - grown_.x0 + cell_ - 1) / cell_) - 1;
+    int j1 = std::min(rows_, (p.y1 - grown_.y0 + cell_ - 1) / cell_) - 1;
+    // The coarsest level needed for at most 4 x 4 entries: each holds the max (min) of the
+    // cells under it, so the max (min) over them bounds the region's from above (below); they
+    // may also cover cells outside it.
+    size_t k = 0;
+    while (k + 1 < level_.size() && ((i1 >> k) - (i0 >> k) >= 4 || (j1 >> k) - (j0 >> k) >= 4))
+        ++k;
+    i0 >>= k;
+    i1 >>= k;
+    j0 >>= k;
+    j1 >>= k;
+    const size_t c = size_t(level_cols_[k]);
+    const double *mx = &max_[level_[k]], *mn = &min_[level_[k]];
+    hi = 0;
+    lo = kInf;
+    for (int j = j0; j <= j1; ++j)
+        for (int i = i0; i <= i1; ++i) {
+            hi = std::max(hi, mx[size_t(j) * c + size_t(i)]);
+            lo = std::min(lo, mn[size_t(j) * c + size_t(i)]);
+        }
 }
 
 void RegionTree::build(int n, int depth) {
@@ -359,13 +483,24 @@ void RegionTree::build(int n, int depth) {
     // higher; the margin's pixels are the neighbour's, which judges them whole.
     const double min_leaf = std::min(extent(b, 0), params_.min_extent) *
                             std::min(extent(b, 1), params_.min_extent);
-    const bool calm = !params_.area_weighted && min_leaf > 0 && sum / min_leaf < params_.target;
+    // Likewise when every cell under the own part reads below the target: each leaf's error
+    // is a weighted mean of those cells' errors. When every one reads above it, every leaf
+    // over the own part would be open and the rest lie in the margin, whose pixels are not
+    // sampled here: the region stays one open leaf, with the same pixels active.
+    // The range query costs about as much as building a few nodes: asked only of regions with
+    // a subtree of more than a handful of nodes to save (it changes no sampled pixel).
+    double cell_lo = 0, cell_hi = kInf;
+    if (!params_.area_weighted && any_own && a >= 16 * params_.min_extent * params_.min_extent)
+        error_range(own, cell_lo, cell_hi);
+    const bool calm = !params_.area_weighted && min_leaf > 0 &&
+                      (sum / min_leaf < params_.target || cell_hi < params_.target);
+    const bool saturated = !params_.area_weighted && cell_lo > params_.target;
     if (!any_own ||
         (node.own_error < params_.target && (params_.area_weighted || !can_split || calm))) {
         node.complete = true;
         return;
     }
-    if (!(e < params_.split_factor * params_.target) || !can_split) {
+    if (!(e < params_.split_factor * params_.target) || !can_split || saturated) {
         nodes_[size_t(n)].complete = false;
         return;
     }

@@ -26,7 +26,12 @@
 // summed-area table of the error over the grown rectangle once (double precision); the integral
 // over any float rectangle is then exact bilinear interpolation of that table at its 4 corners
 // (O(1)) and the split search is a binary search over pixel boundaries (O(log extent)), so a
-// rebuild costs O(grown area) for the table plus O(nodes * log extent).
+// rebuild costs O(grown area) for the table plus O(nodes * log extent). In the mean mode
+// (area_weighted = false) max and min pyramids of the per-cell mean error sit beside the table:
+// a region whose every cell (or pixel) reads below the target can only have complete leaves
+// (a leaf's error is a weighted mean of them), so it becomes one complete leaf without being
+// split, and one whose every cell reads above it can only have open leaves over the quadrant's
+// pixels, so it stays one open leaf; the pixels sampled are those of the full tree.
 #pragma once
 
 #include <cstdint>
@@ -176,9 +181,18 @@ class RegionTree {
     /// possibly narrower): linear inside each cell.
     double table_x(double x) const;
     double table_y(double y) const;
+    /// Table coordinate -> pixel coordinate along axis 0 (x) or 1 (y): the inverse of table_x
+    /// and table_y inside the grown rectangle.
+    double from_table(int axis, double t) const;
     double integral(const FloatRect &r) const;
     bool has_unknown(const FloatRect &r) const;
     double split_position(const FloatRect &r, int axis, double total) const;
+    /// Builds the max and min pyramids from level 0 (the per-cell mean error, cols_ x rows_,
+    /// already in max_).
+    void build_pyramids();
+    /// Bounds of the mean error of the cells with positive coverage by `r`: lo <= the least,
+    /// hi >= the largest.
+    void error_range(const FloatRect &r, double &lo, double &hi) const;
     void build(int node, int depth);
     /// The pixels a region's samples go to: its bounds rounded outward to pixels, and to whole
     /// cells when built from cell sums.
@@ -198,7 +212,15 @@ class RegionTree {
     std::vector<uint32_t> unknown_sat_;
     int cell_ = 1;                 ///< table cell edge in pixels (1: per-pixel table)
     int cols_ = 0, rows_ = 0;      ///< table cells: (cols_ + 1) x (rows_ + 1) entries
+    /// 1 / cell_, and 1 / the width of the last column and row of cells (may be narrower).
+    double inv_cell_ = 1, inv_last_x_ = 1, inv_last_y_ = 1;
     bool any_unknown_ = false;
+    // Mean mode only: the max and min pyramids of the per-cell (per-pixel for rebuild()) mean
+    // error, level 0 first, each level halving both extents (rounding up); level_[k] is the
+    // offset, level_cols_[k] and level_rows_[k] the extent of level k.
+    std::vector<double> max_, min_;
+    std::vector<size_t> level_;
+    std::vector<int> level_cols_, level_rows_;
 };
 
 }  // namespace tessera::sampling
