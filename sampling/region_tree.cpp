@@ -285,7 +285,7 @@ size_t RegionTree::rebuild(const ErrorImage &errors, const RegionTreeParams &par
             out[i + 1] = above[i + 1] + acc;
         }
     }
-    if (!params.area_weighted) {
+    if (!params.area_weighted && params.prune_by_range) {
         max_.resize(size_t(w) * size_t(h));
         for (j = 0; j < h; ++j) {
             const float *row = src(j);
@@ -363,7 +363,7 @@ size_t RegionTree::rebuild_cells(const CellErrorImage &cells, const RegionTreePa
         }
     }
     any_unknown_ = unknown_sat_.back() > 0;
-    if (!params.area_weighted) {
+    if (!params.area_weighted && params.prune_by_range) {
         max_.resize(size_t(cols_) * size_t(rows_));
         for (int j = 0; j < rows_; ++j) {
             const double ch = std::min(cell_, grown_.height() - j * cell_);
@@ -490,7 +490,8 @@ void RegionTree::build(int n, int depth) {
     // The range query costs about as much as building a few nodes: asked only of regions with
     // a subtree of more than a handful of nodes to save (it changes no sampled pixel).
     double cell_lo = 0, cell_hi = kInf;
-    if (!params_.area_weighted && any_own && a >= 16 * params_.min_extent * params_.min_extent)
+    if (!params_.area_weighted && params_.prune_by_range && any_own &&
+        a >= 16 * params_.min_extent * params_.min_extent)
         error_range(own, cell_lo, cell_hi);
     const bool calm = !params_.area_weighted && min_leaf > 0 &&
                       (sum / min_leaf < params_.target || cell_hi < params_.target);

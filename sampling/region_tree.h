@@ -94,6 +94,10 @@ struct RegionTreeParams {
     /// high error inside a large calm one is not averaged away; it is complete when all its
     /// leaves are.
     bool area_weighted = true;
+    /// Mean mode: a region whose cells all read below (above) the target becomes one complete
+    /// (open) leaf without being split (see the file comment). The pixels sampled are the same
+    /// either way; false builds the full tree (for tests and benchmarks).
+    bool prune_by_range = true;
 };
 
 /// A binary tree over one quadrant. Not thread-safe: callers hold the quadrant's writer lock for

@@ -8,7 +8,8 @@
 // per-cell noise, the shape of a render's per-tile error after a few passes. The argument is
 // the target as a fraction of the mean cell error: lower targets cut deeper trees (the
 // `nodes` counter). "relmse" is the default sampler's mode (mean error, splits down to
-// min_extent while a region is not calm), "dammertz" the area-weighted one.
+// min_extent while a region is not calm; "Full" without range pruning), "dammertz" the
+// area-weighted one.
 #include <benchmark/benchmark.h>
 
 #include <algorithm>
@@ -59,11 +60,12 @@ CellErrorImage make_cells(uint32_t seed, double *mean_pixel_error) {
     return c;
 }
 
-void rebuild(benchmark::State &state, bool relmse) {
+void rebuild(benchmark::State &state, bool relmse, bool prune = true) {
     double mean = 0;
     const CellErrorImage cells = make_cells(7, &mean);
     RegionTreeParams p;
     p.area_weighted = !relmse;
+    p.prune_by_range = prune;
     // Dammertz's region error carries r = sqrt(A_b / A_image) (at most 0.5 for a quadrant).
     p.target = mean * double(state.range(0)) / 100.0 * (relmse ? 1.0 : 0.05);
     RegionTree tree(kQuad, kGrown, double(kW) * kH);
@@ -78,10 +80,13 @@ void rebuild(benchmark::State &state, bool relmse) {
 
 void BM_RebuildRelMSE(benchmark::State &state) { rebuild(state, true); }
 void BM_RebuildDammertz(benchmark::State &state) { rebuild(state, false); }
+/// The relMSE mode without range pruning (the full tree: same sampled pixels, more nodes).
+void BM_RebuildRelMSEFull(benchmark::State &state) { rebuild(state, true, false); }
 
 }  // namespace
 
 BENCHMARK(BM_RebuildRelMSE)->Arg(200)->Arg(100)->Arg(50)->Arg(25)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_RebuildRelMSEFull)->Arg(200)->Arg(100)->Arg(50)->Arg(25)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_RebuildDammertz)->Arg(200)->Arg(100)->Arg(50)->Arg(25)->Unit(benchmark::kMicrosecond);
 
 BENCHMARK_MAIN();

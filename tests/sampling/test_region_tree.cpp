@@ -701,3 +701,62 @@ TEST_CASE("mean mode (area_weighted = false): a hot cell inside a calm quadrant 
     CHECK(tree.complete());
     CHECK(tree.open_area() == 0.0);
 }
+
+TEST_CASE("range pruning in the mean mode samples the pixels of the full tree") {
+    // A region whose cells all read below the target is one complete leaf, one whose cells all
+    // read above it one open leaf: the active pixels of every tile, the open area and
+    // completion must equal those of the full tree. Cells: smooth blobs times log-normal noise
+    // (a render's per-tile error), some zero; a quadrant with a margin on every side.
+    const int W = 200, H = 136, c = 8;
+    const PixelBounds quad{48, 32, 152, 104}, grown{40, 24, 160, 112};
+    size_t saved = 0;
+    for (uint32_t seed : {1u, 2u, 3u, 4u}) {
+        std::mt19937 rng(seed);
+        std::normal_distribution<float> n(0.f, 1.f);
+        std::uniform_real_distribution<float> u(0.f, 1.f);
+        ErrorImage img = random_image(W, H, seed);
+        for (int y = 0; y < H; y += c)
+            for (int x = 0; x < W; x += c) {
+                const float f = u(rng) < 0.1f ? 0.f : std::exp(0.7f * n(rng));
+                for (int yy = y; yy < std::min(y + c, H); ++yy)
+                    for (int xx = x; xx < std::min(x + c, W); ++xx) at(img, xx, yy) *= f;
+            }
+        double mean = 0;
+        for (float e : img.error) mean += e;
+        mean /= double(img.error.size());
+        for (double frac : {0.05, 0.3, 1.0, 3.0}) {
+            for (bool cells : {true, false}) {
+                RegionTreeParams p;
+                p.area_weighted = false;
+                p.min_extent = 8;
+                p.target = frac * mean;
+                RegionTree pruned(quad, grown, double(W) * H), full(quad, grown, double(W) * H);
+                RegionTreeParams pf = p;
+                pf.prune_by_range = false;
+                if (cells) {
+                    pruned.rebuild_cells(cells_of(img, grown, c), p);
+                    full.rebuild_cells(cells_of(img, grown, c), pf);
+                } else {
+                    pruned.rebuild(img, p);
+                    full.rebuild(img, pf);
+                }
+                CAPTURE(seed);
+                CAPTURE(frac);
+                CAPTURE(cells);
+                check_partition(pruned);
+                CHECK(pruned.nodes().size() <= full.nodes().size());
+                saved += full.nodes().size() - pruned.nodes().size();
+                CHECK(pruned.complete() == full.complete());
+                CHECK(pruned.open_area() == tessera::test::Approx(full.open_area()).epsilon(1e-9));
+                for (int ty = quad.y0; ty < quad.y1; ty += 8)
+                    for (int tx = quad.x0; tx < quad.x1; tx += 8) {
+                        const PixelBounds tile{tx, ty, std::min(tx + 8, quad.x1), std::min(ty + 8, quad.y1)};
+                        CHECK(pruned.active_mask(tile) == full.active_mask(tile));
+                    }
+            }
+        }
+    }
+    // The pruning must actually cut subtrees on these images.
+    CHECK(saved > 100);
+    MESSAGE("range pruning saved " << saved << " nodes over 32 trees");
+}
