@@ -47,10 +47,20 @@ namespace {
 
 // Index of the cell whose CDF interval contains u: the last i with cdf[i] <= u, clamped to
 // [0, n-1]. Zero-width cells are skipped because upper_bound passes over equal CDF values.
+// The search is std::upper_bound's, written without a data-dependent branch (the half step is a
+// conditional move): the CDF's comparisons are unpredictable, and a mispredicted branch per
+// halving cost more than the search's loads on environment-lit scenes.
 int find_cell(const std::vector<float> &cdf, float u) {
-    auto it = std::upper_bound(cdf.begin(), cdf.end(), u);
-    int i = int(it - cdf.begin()) - 1;
-    return clamp(i, 0, int(cdf.size()) - 2);
+    const float *base = cdf.data();
+    size_t len = cdf.size();
+    // Invariant: the number of entries <= u lies in [base - cdf, base - cdf + len].
+    while (len > 1) {
+        const size_t half = len / 2;
+        base = base[half] <= u ? base + half : base;
+        len -= half;
+    }
+    const int upper = int(base - cdf.data()) + (len > 0 && *base <= u ? 1 : 0);
+    return clamp(upper - 1, 0, int(cdf.size()) - 2);
 }
 
 }  // namespace

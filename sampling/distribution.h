@@ -41,6 +41,8 @@ class PiecewiseConstant1D {
     float max() const { return max_; }
     /// Value of |f| in cell i (after the fallback: 1 everywhere).
     float func(size_t i) const { return func_[i]; }
+    /// The CDF at the cell boundaries: size() + 1 values from 0 to 1, nondecreasing.
+    const std::vector<float> &cdf() const { return cdf_; }
 
     /// Samples x in [min, max) by inversion. `pdf`: density at x (per unit x); `offset`: the
     /// cell index. u in [0,1).

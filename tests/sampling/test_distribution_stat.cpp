@@ -287,3 +287,37 @@ TEST_CASE("AliasTable: all-zero weights, one entry, empty table") {
     CHECK(e.size() == 0);
     CHECK(e.sample(0.5f) == -1);
 }
+
+TEST_CASE("PiecewiseConstant1D: the cell search is std::upper_bound's, ties and ends included") {
+    // Cells of zero value make runs of equal CDF entries, which inversion must pass over (the
+    // last cell whose CDF entry is <= u); u exactly at an entry and one ulp either side.
+    Chi2Rng rng(17);
+    for (int n : {1, 2, 3, 5, 8, 31, 64, 100, 513}) {
+        for (int variant = 0; variant < 4; ++variant) {
+            std::vector<float> f(static_cast<size_t>(n));
+            for (float &v : f) v = rng.uniform() < 0.3f * float(variant) ? 0.f : rng.uniform();
+            PiecewiseConstant1D d(f);
+            const std::vector<float> &cdf = d.cdf();
+            REQUIRE(cdf.size() == size_t(n) + 1);
+            std::vector<float> us;
+            for (float c : cdf) {
+                us.push_back(c);
+                us.push_back(std::nextafter(c, 2.f));
+                us.push_back(std::nextafter(c, -1.f));
+            }
+            for (int k = 0; k < 200; ++k) us.push_back(rng.uniform());
+            for (float u : us) {
+                if (!(u >= 0.f && u < 1.f))
+                    continue;
+                const int expect = std::clamp(
+                    int(std::upper_bound(cdf.begin(), cdf.end(), u) - cdf.begin()) - 1, 0, n - 1);
+                int offset = -1;
+                d.sample_continuous(u, nullptr, &offset);
+                CAPTURE(n);
+                CAPTURE(u);
+                CHECK(offset == expect);
+                CHECK(d.sample_discrete(u) == expect);
+            }
+        }
+    }
+}
