@@ -209,7 +209,13 @@ CheckpointState read_checkpoint(const std::string &path, sampling::Film &film) {
         throw SceneError(path + ":0: checkpoint is " + std::to_string(spec.width) + "x" +
                          std::to_string(spec.height) + ", the render is " +
                          std::to_string(film.width()) + "x" + std::to_string(film.height()));
-    const std::vector<Channel> layout = channel_layout(aovs, film.keeps_prefix());
+    // A render that could not adapt (--spp at most its first pass) writes no prefix
+    // snapshots; resumed by one that adapts, they are rebuilt below from what is known.
+    bool file_prefix = false;
+    for (int f = 0; f < spec.nchannels; ++f)
+        file_prefix = file_prefix || spec.channelnames[size_t(f)].rfind("prefix.", 0) == 0;
+    const bool rebuild_prefix = film.keeps_prefix() && !file_prefix;
+    const std::vector<Channel> layout = channel_layout(aovs, film.keeps_prefix() && file_prefix);
     // The file may store channels in another order (OpenEXR sorts them): map by name.
     std::vector<int> file_index(layout.size(), -1);
     for (size_t c = 0; c < layout.size(); ++c)
@@ -228,7 +234,8 @@ CheckpointState read_checkpoint(const std::string &path, sampling::Film &film) {
     if (aovs.has(sampling::Aov::Albedo)) aov.albedo.resize(px.size());
     if (aovs.has(sampling::Aov::Normal)) aov.normal.resize(px.size());
     if (aovs.has(sampling::Aov::Depth)) aov.depth.resize(px.size());
-    std::vector<sampling::Film::PrefixData> prefix(film.keeps_prefix() ? px.size() : 0);
+    std::vector<sampling::Film::PrefixData> prefix(
+        film.keeps_prefix() && !rebuild_prefix ? px.size() : 0);
     std::vector<uint32_t> w(layout.size());
     for (size_t i = 0; i < px.size(); ++i) {
         for (size_t c = 0; c < layout.size(); ++c)
@@ -274,6 +281,22 @@ CheckpointState read_checkpoint(const std::string &path, sampling::Film &film) {
     uint64_t nan = uint64_t(std::min(nan_d, 1e18));
     st.scene = spec.get_string_attribute("tessera:scene");
     st.settings = spec.get_string_attribute("tessera:settings");
+    if (rebuild_prefix) {
+        // The snapshot the film takes when a pixel's count reaches a power of two is the mean
+        // of all its samples then: exact for a pixel whose count is one now. The snapshots
+        // before are lost; an unknown one (no accepted samples) gives the pixel no error
+        // estimate (sampling/adaptive_error.h), so it keeps sampling until the film has taken
+        // two snapshots of its own, as in a render's first passes: no pixel stops on a guess.
+        prefix.assign(px.size(), sampling::Film::PrefixData{});
+        for (size_t i = 0; i < px.size(); ++i) {
+            const PixelData &q = px[i];
+            if (q.taken == 0 || (q.taken & (q.taken - 1)) != 0)
+                continue;
+            const double inv = q.accepted ? 1.0 / q.accepted : 0.0;
+            for (int c = 0; c < 3; ++c) prefix[i].cur_mean[c] = float(q.sum[c] * inv);
+            prefix[i].cur_accepted = q.accepted;
+        }
+    }
     film.restore(std::move(px), std::move(aov), nan, std::move(prefix));
     return st;
 }

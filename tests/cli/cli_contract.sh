@@ -227,6 +227,35 @@ PY
     expect_rc 0
     [[ -s conv/convergence.csv ]] || fail "converge wrote no CSV"
     ;;
+resume_adaptive)
+    # A render too short to adapt (--spp 4: one pass) writes no prefix snapshots; resuming it
+    # with the default sampler at a larger --spp must continue it (the film rebuilds what it
+    # can of them), to an image like a direct render's.
+    write_good_scene scene.pbrt
+    run render scene.pbrt -o short.exr --resolution 64x64 --spp 4 --threads 2 -q \
+        --checkpoint short.ckpt.exr
+    expect_rc 0
+    [[ -s short.ckpt.exr ]] || fail "no checkpoint written"
+    run render scene.pbrt -o resumed.exr --resolution 64x64 --spp 64 --threads 2 -q \
+        --resume short.ckpt.exr --stats resumed.json
+    expect_rc 0
+    run render scene.pbrt -o direct.exr --resolution 64x64 --spp 64 --threads 2 -q \
+        --stats direct.json
+    expect_rc 0
+    python3 - resumed.json direct.json <<'PY' || fail "resumed render did not continue"
+import json, sys
+r, d = (json.load(open(f)) for f in sys.argv[1:3])
+# It went on past the checkpoint's 4 samples a pixel, to about the direct render's count.
+assert r["samples"] > 4 * 64 * 64 * 2, r["samples"]
+assert 0.5 < r["samples"] / d["samples"] < 2.0, (r["samples"], d["samples"])
+PY
+    run diff resumed.exr direct.exr
+    expect_rc 0
+    # The two images estimate the same one: their means agree to 2%.
+    awk '$1 == "mean(A)" { a = $NF } $1 == "mean(B)" { b = $NF }
+         END { exit !(b > 0 && a / b > 0.98 && a / b < 1.02) }' stdout.txt ||
+        fail "resumed and direct images differ: $(grep mean stdout.txt)"
+    ;;
 diff_same)
     write_good_scene scene.pbrt
     run render scene.pbrt -o a.exr -q
