@@ -25,13 +25,14 @@
 // fraction (the error is treated as constant over each pixel's unit square). rebuild() builds a
 // summed-area table of the error over the grown rectangle once (double precision); the integral
 // over any float rectangle is then exact bilinear interpolation of that table at its 4 corners
-// (O(1)) and the split search is a binary search over pixel boundaries (O(log extent)), so a
-// rebuild costs O(grown area) for the table plus O(nodes * log extent). In the mean mode
-// (area_weighted = false) max and min pyramids of the per-cell mean error sit beside the table:
-// a region whose every cell (or pixel) reads below the target can only have complete leaves
-// (a leaf's error is a weighted mean of them), so it becomes one complete leaf without being
-// split, and one whose every cell reads above it can only have open leaves over the quadrant's
-// pixels, so it stays one open leaf; the pixels sampled are those of the full tree.
+// (O(1)) and the split search is a binary search over the table's cell (or pixel) boundaries
+// (O(log extent)), so a rebuild costs O(grown area) for the table plus O(nodes * log extent).
+// In the mean mode (area_weighted = false) max and min pyramids of the per-cell mean error sit
+// beside the table: a region whose every cell (or pixel) reads below the target can only have
+// complete leaves (a leaf's error is a weighted mean of them), so it becomes one complete leaf
+// without being split, and one whose every cell reads above it can only have open leaves over
+// the quadrant's pixels, so it stays one open leaf; the pixels sampled are those of the full
+// tree.
 #pragma once
 
 #include <cstdint>
