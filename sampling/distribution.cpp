@@ -48,8 +48,8 @@ namespace {
 // Index of the cell whose CDF interval contains u: the last i with cdf[i] <= u, clamped to
 // [0, n-1]. Zero-width cells are skipped because upper_bound passes over equal CDF values.
 // The search is std::upper_bound's, written without a data-dependent branch (the half step is a
-// conditional move): the CDF's comparisons are unpredictable, and a mispredicted branch per
-// halving cost more than the search's loads on environment-lit scenes.
+// conditional move), since the CDF's comparisons are unpredictable; what remains is the wait
+// for the CDF's cache lines.
 int find_cell(const std::vector<float> &cdf, float u) {
     const float *base = cdf.data();
     size_t len = cdf.size();
