@@ -41,32 +41,50 @@ PiecewiseConstant1D::PiecewiseConstant1D(std::span<const float> f, float min, fl
     for (size_t i = 0; i <= n; ++i)
         cdf_[i] = float(cdf[i] / cdf[n]);
     cdf_[n] = 1.f;
+
+    // About four cells per bucket on average: a quarter of the CDF's memory, and where u
+    // lands most often (the large cells) a bucket holds one or two entries.
+    const size_t buckets = std::max<size_t>(1, n / 4);
+    guide_.assign(buckets + 1, 0);
+    // guide_[b] = number of entries whose bucket is below b. bucket() is nondecreasing in u and
+    // the CDF is sorted, so for u in bucket b every entry of a lower bucket is <= u and every
+    // entry of a higher bucket is > u.
+    size_t e = 0;
+    for (size_t b = 0; b <= buckets; ++b) {
+        while (e <= n && size_t(bucket(cdf_[e])) < b)
+            ++e;
+        guide_[b] = uint32_t(e);
+    }
 }
 
-namespace {
+int PiecewiseConstant1D::bucket(float u) const {
+    const int g = int(guide_.size()) - 1;
+    const float x = u * float(g);
+    // NaN and negative u go to bucket 0, u >= 1 to the last one; both stay monotone.
+    return x >= 0.f ? (x < float(g) ? std::min(int(x), g - 1) : g - 1) : 0;
+}
 
 // Index of the cell whose CDF interval contains u: the last i with cdf[i] <= u, clamped to
 // [0, n-1]. Zero-width cells are skipped because upper_bound passes over equal CDF values.
-// The search is std::upper_bound's, written without a data-dependent branch (the half step is a
-// conditional move), since the CDF's comparisons are unpredictable; what remains is the wait
-// for the CDF's cache lines.
-int find_cell(const std::vector<float> &cdf, float u) {
-    const float *base = cdf.data();
-    size_t len = cdf.size();
-    // Invariant: the number of entries <= u lies in [base - cdf, base - cdf + len].
+// The count of entries <= u is std::upper_bound's, searched only over the guide table's range
+// for u's bucket, and written without a data-dependent branch (the half step is a conditional
+// move), since the CDF's comparisons are unpredictable.
+int PiecewiseConstant1D::find_cell(float u) const {
+    const int b = bucket(u);
+    const float *base = cdf_.data() + guide_[size_t(b)];
+    size_t len = guide_[size_t(b) + 1] - guide_[size_t(b)];
+    // Invariant: the number of entries <= u in the range lies in [base - start, base - start + len].
     while (len > 1) {
         const size_t half = len / 2;
         base = base[half] <= u ? base + half : base;
         len -= half;
     }
-    const int upper = int(base - cdf.data()) + (len > 0 && *base <= u ? 1 : 0);
-    return clamp(upper - 1, 0, int(cdf.size()) - 2);
+    const int upper = int(base - cdf_.data()) + (len > 0 && *base <= u ? 1 : 0);
+    return clamp(upper - 1, 0, int(cdf_.size()) - 2);
 }
 
-}  // namespace
-
 float PiecewiseConstant1D::sample_continuous(float u, float *pdf, int *offset) const {
-    int o = find_cell(cdf_, u);
+    int o = find_cell(u);
     if (offset)
         *offset = o;
     float du = u - cdf_[o];
@@ -83,7 +101,7 @@ float PiecewiseConstant1D::sample_continuous(float u, float *pdf, int *offset) c
 }
 
 int PiecewiseConstant1D::sample_discrete(float u, float *pmf_out, float *u_remapped) const {
-    int o = find_cell(cdf_, u);
+    int o = find_cell(u);
     if (pmf_out)
         *pmf_out = pmf(size_t(o));
     if (u_remapped) {

@@ -293,9 +293,15 @@ TEST_CASE("PiecewiseConstant1D: the cell search is std::upper_bound's, ties and 
     // last cell whose CDF entry is <= u); u exactly at an entry and one ulp either side.
     Chi2Rng rng(17);
     for (int n : {1, 2, 3, 5, 8, 31, 64, 100, 513}) {
-        for (int variant = 0; variant < 4; ++variant) {
+        for (int variant = 0; variant < 5; ++variant) {
             std::vector<float> f(static_cast<size_t>(n));
             for (float &v : f) v = rng.uniform() < 0.3f * float(variant) ? 0.f : rng.uniform();
+            // Variant 4: one cell 1e6 times the rest, so that most CDF entries crowd into the
+            // first and last guide buckets.
+            if (variant == 4) {
+                for (float &v : f) v = 1e-6f * rng.uniform();
+                f[size_t(n) / 2] = 1.f;
+            }
             PiecewiseConstant1D d(f);
             const std::vector<float> &cdf = d.cdf();
             REQUIRE(cdf.size() == size_t(n) + 1);
@@ -306,6 +312,14 @@ TEST_CASE("PiecewiseConstant1D: the cell search is std::upper_bound's, ties and 
                 us.push_back(std::nextafter(c, -1.f));
             }
             for (int k = 0; k < 200; ++k) us.push_back(rng.uniform());
+            // The guide table's bucket edges (about n / 4 buckets) and one ulp either side.
+            for (int g = 1; g <= n; ++g)
+                for (int j = 0; j <= g; ++j) {
+                    const float c = float(j) / float(g);
+                    us.push_back(c);
+                    us.push_back(std::nextafter(c, 2.f));
+                    us.push_back(std::nextafter(c, -1.f));
+                }
             for (float u : us) {
                 if (!(u >= 0.f && u < 1.f))
                     continue;
