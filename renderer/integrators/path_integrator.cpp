@@ -13,11 +13,41 @@ namespace {
 
 /// What the path loop carries from one bounce to the next that MIS needs: whether the last
 /// bounce was specular, the solid-angle pdf of the last BSDF sample, where it was taken.
+///
+/// A sample whose pdf is only proportional to its density (the layered BSDFs' random walks)
+/// needs Bsdf::pdf, another random walk, for that density; MIS reads it only when the next
+/// ray finds emission (an area light, or an infinite light on escape), so it is evaluated
+/// then, from the previous bounce's BSDF, which the loop keeps alive until the next bounce's
+/// emission has been added. Bsdf::pdf is a pure function of its directions (its walk seeds
+/// itself from them), so the value is the one an eager call would give, bit for bit.
 struct BounceState {
     int depth = 0;
     bool specular_bounce = false;
-    float p_bsdf = 1.f;
     LightSampleContext prev_ctx;
+
+    /// The solid-angle density of the last BSDF sample, evaluated on first use.
+    float p_bsdf() const {
+        if (pending_) {
+            p_bsdf_ = pending_->pdf(pending_wo_, pending_wi_);
+            pending_ = nullptr;
+        }
+        return p_bsdf_;
+    }
+    void set_p_bsdf(float p) {
+        p_bsdf_ = p;
+        pending_ = nullptr;
+    }
+    /// p_bsdf() becomes bsdf.pdf(wo, wi); `bsdf` must outlive the next bounce's emission.
+    void defer_p_bsdf(const Bsdf &bsdf, Vec3f wo, Vec3f wi) {
+        pending_ = &bsdf;
+        pending_wo_ = wo;
+        pending_wi_ = wi;
+    }
+
+  private:
+    mutable float p_bsdf_ = 1.f;
+    mutable const Bsdf *pending_ = nullptr;
+    Vec3f pending_wo_, pending_wi_;
 };
 
 /// Which estimators the path tracer combines (DirectStrategy): next-event estimation, emission
@@ -36,7 +66,7 @@ template <class LightPdf>
         L += beta * Le;
     } else if (st.bsdf_emission) {
         float w = 1.f;
-        if (st.nee) w = power_heuristic(b.p_bsdf, light_pdf());
+        if (st.nee) w = power_heuristic(b.p_bsdf(), light_pdf());
         L += beta * Le * w;
     }
 }
@@ -243,6 +273,9 @@ PathIntegrator::PathResult PathIntegrator::trace_impl(
     const Strategies st{strategy_ != DirectStrategy::BsdfOnly,
                         strategy_ != DirectStrategy::LightOnly};
     const bool need_differentials = differentials_;
+    using BsdfType = std::conditional_t<kLambertian, LambertianBsdf, Bsdf>;
+    std::array<std::optional<BsdfType>, 2> bsdfs;
+    int slot = 0;
 
     while (true) {
         // The camera ray's hit may come traced already (evaluate_batch's packets).
@@ -265,8 +298,10 @@ PathIntegrator::PathResult PathIntegrator::trace_impl(
             compute_differentials(si, b.depth == 0 ? &cray : nullptr, *sc.camera, spp_hint_);
         // The BSDF: in the Lambertian specialisation straight from the material's constant
         // reflectance, in the frame Material::frame builds without a bump map.
-        using BsdfType = std::conditional_t<kLambertian, LambertianBsdf, Bsdf>;
-        std::optional<BsdfType> bsdf;
+        // Two BSDF slots, alternating per bounce: the previous bounce's BSDF stays alive for
+        // the deferred pdf (BounceState) while this bounce builds its own.
+        std::optional<BsdfType> &bsdf = bsdfs[slot];
+        bsdf.reset();
         if constexpr (kLambertian) {
             if (si.material >= 0)
                 bsdf = LambertianBsdf{Frame::from_xz(si.dpdu, si.ns),
@@ -296,10 +331,19 @@ PathIntegrator::PathResult PathIntegrator::trace_impl(
         std::optional<BsdfSample> bs = bsdf->sample_f(si.wo, uc, u);
         if (!bs || bs->pdf <= 0.f || bs->f.is_black()) break;
         beta *= bs->f * (absdot(bs->wi, bsdf->frame().z) / bs->pdf);
-        // A proportional pdf (the layered BSDFs) is replaced by pdf()'s density for MIS; after
-        // a specular sample MIS never reads it.
-        b.p_bsdf = bs->pdf_is_proportional && !bs->is_specular() ? bsdf->pdf(si.wo, bs->wi)
-                                                                  : bs->pdf;
+        // A proportional pdf (the layered BSDFs) is replaced by pdf()'s density for MIS,
+        // deferred until emission needs it (BounceState); after a specular sample MIS never
+        // reads it.
+        if constexpr (!kLambertian) {
+            if (bs->pdf_is_proportional && !bs->is_specular()) {
+                b.defer_p_bsdf(*bsdf, si.wo, bs->wi);
+                slot ^= 1;
+            } else {
+                b.set_p_bsdf(bs->pdf);
+            }
+        } else {
+            b.set_p_bsdf(bs->pdf);
+        }
         b.specular_bounce = bs->is_specular();
         if (bs->is_transmission()) eta_scale *= sqr(bs->eta);
         b.prev_ctx = LightSampleContext{si.p, si.n};
