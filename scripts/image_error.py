@@ -2,6 +2,7 @@
 """Per-pixel error helpers of the adaptive-sampling benchmark (scripts/bench_adaptive.py).
 
     scripts/image_error.py TEST.exr REF.exr     # prints relMSE and the robust relMSE
+    scripts/image_error.py --self-test          # read_exr against analytic images (exit 1: wrong)
 
 EXR files are read through `oiiotool` (OpenImageIO's command-line tool, from the Debian package
 openimageio-tools that scripts/setup.sh installs), converted to a temporary float FITS file (the
@@ -47,7 +48,14 @@ def read_fits(path):
     if len(dims) == 2:
         dims = [1] + dims
     c, w, h = dims
-    data = np.frombuffer(raw[pos:pos + 4 * c * w * h], dtype=">f4").reshape(h, w, c)
+    # OpenImageIO 2.4's FITS writer (Debian 12's oiiotool) places row y of its bottom-up data
+    # at (h - y) rows from the start instead of (h - 1 - y): the file then holds h + 1 rows, the
+    # first one never written (zeros) and the image's top row last. A writer that keeps to the
+    # standard holds h rows (padded to the 2880-byte block), read from the start.
+    row = 4 * c * w
+    if len(raw) - pos == row * (h + 1):
+        pos += row
+    data = np.frombuffer(raw[pos:pos + row * h], dtype=">f4").reshape(h, w, c)
     # FITS rows run bottom-up.
     return data[::-1].astype(np.float32)
 
@@ -100,7 +108,34 @@ def block_mean(img, f=8):
     return s / (c[..., None] if img.ndim == 3 else c)
 
 
+def self_test():
+    """read_exr on oiiotool's gradients, whose every pixel is known: R = x / (w - 1),
+    G = y / (h - 1) (row 0 on top), B = 0.25; sizes odd and even, 3 channels and 1."""
+    failures = 0
+    with tempfile.TemporaryDirectory() as d:
+        for w, h in ((5, 3), (8, 4), (1, 7), (19, 11)):
+            exr = os.path.join(d, f"g{w}x{h}.exr")
+            pattern = ("fill:topleft=0,0,0.25:topright=1,0,0.25:bottomleft=0,1,0.25:"
+                       "bottomright=1,1,0.25")
+            subprocess.run(["oiiotool", "--pattern", pattern, f"{w}x{h}", "3", "-d", "float",
+                            "-o", exr], check=True, stdout=subprocess.DEVNULL)
+            xs = np.arange(w) / max(w - 1, 1)
+            ys = np.arange(h) / max(h - 1, 1)
+            want = np.stack([np.broadcast_to(xs[None, :], (h, w)),
+                             np.broadcast_to(ys[:, None], (h, w)),
+                             np.full((h, w), 0.25)], axis=2)
+            for channels, sl in (("R,G,B", slice(0, 3)), ("G", slice(1, 2))):
+                got = read_exr(exr, channels)
+                ok = got.shape == want[..., sl].shape and \
+                    np.allclose(got, want[..., sl], atol=1e-6)
+                print(f"{w}x{h} {channels}: {'ok' if ok else 'WRONG'}")
+                failures += not ok
+    return failures
+
+
 def main():
+    if sys.argv[1:] == ["--self-test"]:
+        sys.exit(1 if self_test() else 0)
     if len(sys.argv) != 3:
         sys.exit(__doc__)
     t, r = read_exr(sys.argv[1]), read_exr(sys.argv[2])
