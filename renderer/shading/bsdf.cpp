@@ -106,12 +106,13 @@ std::optional<BsdfSample> ConductorBxdf::sample_f(Vec3f wo, float, Vec2f u, Tran
     if (wo_dot_wm == 0.f)
         return std::nullopt;
     // Jacobian of the reflection map: dwm/dwi = 1 / (4 |wo . wm|) (PBRT eq. 9.28).
-    float pdf = distrib.pdf(wo, wm) / (4.f * wo_dot_wm);
+    const float d_wm = distrib.d(wm), lambda_o = distrib.lambda(wo);
+    float pdf = distrib.pdf(wo, wm, d_wm, lambda_o) / (4.f * wo_dot_wm);
     float cos_o = std::abs(wo.z), cos_i = std::abs(wi.z);
     if (cos_i == 0.f || !(pdf > 0.f))
         return std::nullopt;
     Rgb fr = fr_complex(wo_dot_wm, eta, k);
-    s.f = fr * (distrib.d(wm) * distrib.g(wo, wi) / (4.f * cos_o * cos_i));
+    s.f = fr * (d_wm * distrib.g(lambda_o, wi) / (4.f * cos_o * cos_i));
     s.wi = wi;
     s.pdf = pdf;
     s.flags = kBxdfReflection | kBxdfGlossy;
@@ -284,12 +285,14 @@ std::optional<BsdfSample> DielectricBxdf::sample_f(Vec3f wo, float uc, Vec2f u, 
     if (!(pr + pt > 0.f))
         return std::nullopt;
     float cos_o = wo.z;
+    // D(wm) and Lambda(wo) enter both the density and the value.
+    const float d_wm = distrib.d(wm), lambda_o = distrib.lambda(wo);
     if (uc < pr / (pr + pt)) {
         Vec3f wi = reflect(wo, wm);
         if (!same_hemisphere(wo, wi))
             return std::nullopt;
-        float pdf = distrib.pdf(wo, wm) / (4.f * absdot(wo, wm)) * pr / (pr + pt);
-        float fr = distrib.d(wm) * distrib.g(wo, wi) * r / std::abs(4.f * wi.z * cos_o);
+        float pdf = distrib.pdf(wo, wm, d_wm, lambda_o) / (4.f * absdot(wo, wm)) * pr / (pr + pt);
+        float fr = d_wm * distrib.g(lambda_o, wi) * r / std::abs(4.f * wi.z * cos_o);
         if (!(pdf > 0.f) || !std::isfinite(fr) || !std::isfinite(pdf))
             return std::nullopt;
         s.f = Rgb(fr);
@@ -308,8 +311,8 @@ std::optional<BsdfSample> DielectricBxdf::sample_f(Vec3f wo, float uc, Vec2f u, 
     if (denom == 0.f)
         return std::nullopt;
     float dwm_dwi = absdot(wi, wm) / denom;
-    float pdf = distrib.pdf(wo, wm) * dwm_dwi * pt / (pr + pt);
-    float ft = t * distrib.d(wm) * distrib.g(wo, wi) *
+    float pdf = distrib.pdf(wo, wm, d_wm, lambda_o) * dwm_dwi * pt / (pr + pt);
+    float ft = t * d_wm * distrib.g(lambda_o, wi) *
                std::abs(dot(wi, wm) * dot(wo, wm) / (wi.z * cos_o * denom));
     if (mode == TransportMode::Radiance)
         ft /= sqr(etap);

@@ -166,6 +166,20 @@ struct TrowbridgeReitz {
     /// Density (1/sr over wm) with which sample_wm(w, u) returns wm.
     float pdf(Vec3f w, Vec3f wm) const { return d(w, wm); }
 
+    /// d(w, wm) and g(w, wi) from D(wm) and Lambda(w) already at hand, in the same operations
+    /// and so to the same float: a sampler that evaluates the density of its microfacet normal
+    /// and then the BSDF value computes each once.
+    float pdf(Vec3f w, Vec3f wm, float d_wm, float lambda_w) const {
+        float c = abs_cos_theta(w);
+        if (c == 0.f)
+            return 0.f;
+        float w_dot_wm = w.z < 0.f ? -dot(w, wm) : dot(w, wm);
+        if (!(w_dot_wm > 0.f))
+            return 0.f;
+        return 1.f / (1.f + lambda_w) / c * d_wm * w_dot_wm;
+    }
+    float g(float lambda_wo, Vec3f wi) const { return 1.f / (1.f + lambda_wo + lambda(wi)); }
+
     /// Samples a visible microfacet normal for direction `w` (either hemisphere; the result
     /// lies in the +z hemisphere). Heitz 2018: stretch w to the alpha = 1 configuration, sample
     /// the projected visible hemisphere as a disk warped toward its visible part, unstretch.
