@@ -28,6 +28,14 @@ renders at about --pixels pixels with its own aspect ratio. Per scene:
   sum a_p / n_p for a fixed total, and give (mean sqrt a)^2 / mean a times uniform's relMSE
   ("oracle"; per 8x8 tile: "oracle-tile"). The per-pixel a_p come from a few noisy seeds, so the
   oracle is somewhat optimistic (Jensen);
+- what of it is knowable, and what samples cost: "oracle, cross-validated" allocates by one
+  uniform seed's per-pixel error (3x3 mean) and judges the allocation on the other seeds' errors
+  (what an estimate from one budget's samples could reach, in samples); "allocation" judges the
+  adaptive run's own final spp map the same way (seed k against the uniform seeds other than k);
+  "samples/s" is its sample rate against uniform's at equal time (its samples go where they cost
+  more). At equal time the ratio is about allocation / samples/s, less whatever the sampler gains
+  by reacting to the paths it actually drew (a firefly it samples down), which no allocation fixed
+  in advance can;
 - concentration: the share of uniform's robust relMSE held by its 10% worst pixels (a scene is
   "concentrated" when it is over half);
 - the error estimate against the truth: an adaptive `tessera render` writes its per-pixel relMSE
@@ -141,6 +149,20 @@ def stats_of(v):
             "values": [float(x) for x in v]}
 
 
+def box3(x):
+    """3x3 mean (edges repeated)."""
+    p = np.pad(x, 1, mode="edge")
+    h, w = x.shape
+    return sum(p[dy:dy + h, dx:dx + w] for dy in range(3) for dx in range(3)) / 9.0
+
+
+def allocation_ratio(n, err):
+    """relMSE of the per-pixel sample map n (any scale), at the same total samples, against
+    uniform sampling, for per-pixel errors `err` of uniform sampling (a pixel's error ~ 1/n)."""
+    n = n / n.mean()
+    return float(np.mean(np.where(err > 0, err / np.maximum(n, 1e-12), 0.0)) / err.mean())
+
+
 def bench_scene(path, args, out):
     name = scene_name(path)
     w, h = resolution(path, args.pixels)
@@ -212,6 +234,31 @@ def bench_scene(path, args, out):
     srt = np.sort(a_p.ravel())[::-1]
     share10 = float(srt[: max(1, len(srt) // 10)].sum() / srt.sum()) if srt.sum() > 0 else 0.0
 
+    # How much of the oracle's gain is knowable, and what the samples cost. The oracle divides
+    # by the same noisy a_p it allocates by (optimistic), and counts samples, not time. An
+    # allocation by one uniform seed's per-pixel error (3x3 mean), judged on the other seeds'
+    # errors ("cross-validated"), is what an estimate from one budget's samples could reach.
+    # The sampler's own final spp map (seed k) is judged on the uniform seeds other than k
+    # (seed k's uniform run shares its first samples) the same way: its allocation in samples
+    # at uniform's total. Its samples per second against uniform's is the rest of the equal-time
+    # ratio (a pixel's samples cost more where the error is: layered materials, paths that do
+    # not miss).
+    errs = [ie.pixel_rel_errors(im, ref) for im in u_imgs]
+    cv, alloc, rate = [], [], []
+    for k in range(len(errs)):
+        if len(errs) < 2:
+            break
+        others = np.mean([e for j, e in enumerate(errs) if j != k], axis=0)
+        others = np.minimum(others, np.quantile(others, 1 - ie.DROP))
+        cv.append(allocation_ratio(np.sqrt(box3(errs[k])), others))
+        n = ie.read_exr(os.path.join(conv[k]["_dir"], conv[k]["samplers"][1]["images"]["exr"]),
+                        "spp.Y")[..., 0].astype(np.float64)
+        alloc.append(allocation_ratio(n, others))
+    for c in conv:
+        u, a = final_rows(c)
+        if u["time_s"] > 0 and a["time_s"] > 0 and u["mean_spp"] > 0:
+            rate.append((a["mean_spp"] / a["time_s"]) / (u["mean_spp"] / u["time_s"]))
+
     # Seams: robust ratio at 8x8 tiles against full resolution (mean over the seeds).
     ref8 = ie.block_mean(ref, 8)
     tile_ratio = [ie.rel_mse_robust(ie.block_mean(a, 8), ref8) /
@@ -278,6 +325,8 @@ def bench_scene(path, args, out):
         "ratio_relmse": stats_of(ratio), "ratio_robust": stats_of(ratio_robust),
         "time_to_uniform_error": stats_of(t_reach), "time_extrapolated": extrap,
         "oracle": oracle, "oracle_tile": oracle_tile, "share_10pct": share10,
+        "oracle_cross_validated": stats_of(cv), "allocation": stats_of(alloc),
+        "samples_per_s_ratio": stats_of(rate),
         "concentrated": share10 > 0.5,
         "seam_tile_ratio": float(np.mean(tile_ratio)), "seam_full_ratio": float(np.mean(full_ratio)),
         "spp_budget": n, "spp": spp_rows,
@@ -301,9 +350,10 @@ def table(results, args):
         f"pixels, references {args.reference_spp} spp; sampler `{args.sampler}` / uniform "
         "(mean [min, max] over seeds; reference noise subtracted).", "",
         "| scene | res | time | uniform spp | robust relMSE ratio | relMSE ratio | time to uniform's "
-        "error | oracle (tile) | 10% share | spp budget: time x error | est/true, log corr | "
-        "seam: tile / full | --error E: reached / E, time |",
-        "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+        "error | oracle (tile) | oracle, cross-validated | allocation | samples/s | 10% share | "
+        "spp budget: time x error | est/true, log corr | seam: tile / full | --error E: reached "
+        "/ E, time |",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in results:
         if "error" in r:
             lines.append(f"| {r['scene']} | failed: {r['error']} |")
@@ -312,7 +362,9 @@ def table(results, args):
             f"| {r['scene']} | {r['resolution']} | {r['time_s']:g} s | {r['uniform_spp']:.0f} | "
             f"{fmt(r['ratio_robust'])} | {fmt(r['ratio_relmse'])} | "
             f"{'>' if r['time_extrapolated'] else ''}{fmt(r['time_to_uniform_error'])} | "
-            f"{r['oracle']:.2f} ({r['oracle_tile']:.2f}) | {r['share_10pct']:.2f}"
+            f"{r['oracle']:.2f} ({r['oracle_tile']:.2f}) | "
+            f"{fmt(r.get('oracle_cross_validated'))} | {fmt(r.get('allocation'))} | "
+            f"{fmt(r.get('samples_per_s_ratio'))} | {r['share_10pct']:.2f}"
             f"{' *' if r['concentrated'] else ''} | "
             f"{fmt(r['spp_time_to_uniform_error'])} (N={r['spp_budget']}) | "
             f"{(r['estimate_over_true'] or float('nan')):.2f}, "
@@ -321,6 +373,11 @@ def table(results, args):
             f"{r['error_mode']['relmse_robust'] / r['error_mode']['target']:.2f}, "
             f"{r['error_mode']['wall_s'] / r['error_mode']['uniform_time_s']:.2f}x |")
     ok = [r for r in results if "error" not in r]
+
+    def med(key):
+        v = [r[key]["mean"] for r in ok if r.get(key)]
+        return f"{np.median(v):.3f}" if v else "n/a"
+
     if ok:
         rr = [r["ratio_robust"]["mean"] for r in ok]
         conc = [r["ratio_robust"]["mean"] for r in ok if r["concentrated"]]
@@ -330,7 +387,10 @@ def table(results, args):
                   f"concentrated scenes (*): max {max(conc) if conc else float('nan'):.3f}; "
                   f"worse than uniform on every seed: {', '.join(worse) or 'none'}; "
                   f"median spp-budget time to uniform's error {np.median(spp) if spp else float('nan'):.3f}; "
-                  f"median oracle {np.median([r['oracle'] for r in ok]):.3f}"]
+                  f"median oracle {np.median([r['oracle'] for r in ok]):.3f}; "
+                  f"median cross-validated oracle {med('oracle_cross_validated')}; "
+                  f"median allocation {med('allocation')}; "
+                  f"median samples/s ratio {med('samples_per_s_ratio')}"]
     return "\n".join(lines)
 
 
