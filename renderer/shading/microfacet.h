@@ -153,22 +153,14 @@ struct TrowbridgeReitz {
     /// (Heitz 2014, eq. 38; PBRT eq. 9.23), with w mirrored to the +z side when it lies below (the
     /// sampler's symmetric convention) and <.> clamping back-facing normals to zero, so that it
     /// integrates to 1 over the +z hemisphere. Units: 1/sr over wm.
-    float d(Vec3f w, Vec3f wm) const {
-        float c = abs_cos_theta(w);
-        if (c == 0.f)
-            return 0.f;
-        float w_dot_wm = w.z < 0.f ? -dot(w, wm) : dot(w, wm);
-        if (!(w_dot_wm > 0.f))
-            return 0.f;
-        return g1(w) / c * d(wm) * w_dot_wm;
-    }
+    float d(Vec3f w, Vec3f wm) const { return pdf(w, wm, d(wm), lambda(w)); }
 
     /// Density (1/sr over wm) with which sample_wm(w, u) returns wm.
     float pdf(Vec3f w, Vec3f wm) const { return d(w, wm); }
 
-    /// d(w, wm) and g(w, wi) from D(wm) and Lambda(w) already at hand, in the same operations
-    /// and so to the same float: a sampler that evaluates the density of its microfacet normal
-    /// and then the BSDF value computes each once.
+    /// d(w, wm) (which calls it) and g(w, wi) from D(wm) and Lambda(w) already at hand: a
+    /// sampler that evaluates the density of its microfacet normal and then the BSDF value
+    /// computes each once. 1 / (1 + Lambda(w)) is g1(w).
     float pdf(Vec3f w, Vec3f wm, float d_wm, float lambda_w) const {
         float c = abs_cos_theta(w);
         if (c == 0.f)
