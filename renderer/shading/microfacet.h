@@ -147,7 +147,7 @@ struct TrowbridgeReitz {
     float g1(Vec3f w) const { return 1.f / (1.f + lambda(w)); }
 
     /// Height-correlated masking-shadowing G(wo, wi) = 1 / (1 + Lambda(wo) + Lambda(wi)).
-    float g(Vec3f wo, Vec3f wi) const { return 1.f / (1.f + lambda(wo) + lambda(wi)); }
+    float g(Vec3f wo, Vec3f wi) const { return g(lambda(wo), wi); }
 
     /// Distribution of normals visible from w: D_w(wm) = G1(w) / |cos w| * D(wm) * <w . wm>
     /// (Heitz 2014, eq. 38; PBRT eq. 9.23), with w mirrored to the +z side when it lies below (the
